@@ -1,0 +1,37 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/camera_intrinsics.h"
+#include "core/types.h"
+
+namespace clutterseg::core {
+
+/// A point cloud in the camera frame, metres. Organized when `height > 1`: point (u, v) is
+/// index `v * width + u`, and invalid pixels hold NaN coordinates. An unorganized cloud has
+/// `height == 1`. `rgba` (0xAARRGGBB) and `label` are either empty or have one entry per point.
+struct PointCloud {
+  int width{0};
+  int height{0};
+  std::vector<Vec3f> xyz;
+  std::vector<uint32_t> rgba;
+  std::vector<uint32_t> label;
+
+  size_t size() const { return xyz.size(); }
+  bool empty() const { return xyz.empty(); }
+  bool organized() const { return height > 1; }
+  bool has_color() const { return !rgba.empty(); }
+  bool has_label() const { return !label.empty(); }
+  /// Number of points with finite coordinates. O(n).
+  size_t CountValid() const;
+};
+
+/// Back-projects a depth image (millimetres, 0 = invalid) into an organized cloud, reusing
+/// `cloud`'s storage. Colour is copied when `color` is non-null and has the depth's size.
+/// Depth values outside [min_m, max_m] become invalid.
+void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& intrinsics,
+                       const ColorImage* color, PointCloud* cloud, float min_m = 0.f,
+                       float max_m = 100.f);
+
+}  // namespace clutterseg::core

@@ -1,0 +1,62 @@
+#pragma once
+
+#include <condition_variable>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <future>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace clutterseg::core {
+
+/// A fixed-size pool of std::threads for work inside a frame (ParallelFor) and across frames
+/// (Submit). Work is split into chunks whose boundaries depend only on the problem size and
+/// the grain, never on the number of threads, so per-chunk results combined in chunk order
+/// are identical for any pool size.
+///
+/// Thread-safety: all methods may be called from any thread. ParallelFor called from inside a
+/// pool worker runs inline on that worker (no nested fan-out, no deadlock).
+class ThreadPool {
+ public:
+  ThreadPool(const ThreadPool&) = delete;
+  ThreadPool& operator=(const ThreadPool&) = delete;
+  ThreadPool(ThreadPool&&) = delete;
+  ThreadPool& operator=(ThreadPool&&) = delete;
+
+  /// Starts `num_threads - 1` workers (the caller of ParallelFor is the last one). 0 means
+  /// std::thread::hardware_concurrency(); 1 means everything runs on the calling thread.
+  explicit ThreadPool(int num_threads = 0);
+  /// Finishes queued tasks, then joins the workers.
+  ~ThreadPool();
+
+  /// Total threads that execute ParallelFor chunks (workers + caller).
+  int num_threads() const { return static_cast<int>(workers_.size()) + 1; }
+
+  /// Calls `fn(begin, end)` for the chunks [k*grain, min(n, (k+1)*grain)) of [0, n), in
+  /// parallel, and returns when all are done. If any chunk throws, the first exception (in
+  /// chunk order) is rethrown here after all chunks finished.
+  void ParallelFor(size_t n, size_t grain, const std::function<void(size_t, size_t)>& fn);
+
+  /// Number of chunks ParallelFor uses for (n, grain).
+  static size_t NumChunks(size_t n, size_t grain) { return grain == 0 ? 0 : (n + grain - 1) / grain; }
+
+  /// Queues `task` to run on a worker (or inline when the pool has no worker) and returns its
+  /// future; an exception thrown by the task is stored in the future.
+  std::future<void> Submit(std::function<void()> task);
+
+  /// True when called from one of this pool's worker threads.
+  bool InWorker() const;
+
+ private:
+  void WorkerLoop();
+
+  std::vector<std::thread> workers_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<std::function<void()>> queue_;
+  bool stopping_{false};
+};
+
+}  // namespace clutterseg::core

@@ -1,0 +1,35 @@
+#pragma once
+
+#include <string>
+
+#include "core/point_cloud.h"
+
+namespace clutterseg::io {
+
+/// Limits that protect the readers against hostile headers.
+struct ReadLimits {
+  size_t max_points{64u * 1024u * 1024u};     ///< refuse files declaring more points
+  size_t max_header_bytes{64u * 1024u};       ///< refuse headers longer than this
+};
+
+/// Reads a PCD v0.7 (or 0.6/0.5) file: organized or not, DATA ascii, binary or
+/// binary_compressed (LZF), fields x y z plus optional rgb/rgba and label in any order; other
+/// fields are skipped. Fills `xyz`, and `rgba` / `label` when present.
+/// @throws std::runtime_error naming the file and what is wrong (malformed header, truncated
+/// data, sizes beyond `limits`). Never allocates more than the file can justify.
+core::PointCloud ReadPcd(const std::string& path, const ReadLimits& limits = {});
+
+/// Same, from an in-memory buffer; `name` is used in error messages.
+core::PointCloud ReadPcdFromMemory(const void* data, size_t size, const std::string& name,
+                                   const ReadLimits& limits = {});
+
+/// PCD DATA encodings that WritePcd can produce.
+enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
+
+/// Writes `cloud` as PCD v0.7 with fields x y z rgba label (PCL's PointXYZRGBL layout; rgba
+/// is 0xFF000000 and label 0 when the cloud has none). Organized clouds keep width/height.
+/// @throws std::runtime_error when the file cannot be written.
+void WritePcd(const std::string& path, const core::PointCloud& cloud,
+              PcdEncoding encoding = PcdEncoding::kBinary);
+
+}  // namespace clutterseg::io

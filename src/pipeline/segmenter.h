@@ -1,0 +1,44 @@
+#pragma once
+
+#include <memory>
+
+#include "core/camera_intrinsics.h"
+#include "core/point_cloud.h"
+#include "core/thread_pool.h"
+#include "pipeline/segmentation_result.h"
+#include "pipeline/segmenter_params.h"
+
+namespace clutterseg::pipeline {
+
+/// Segments one organized frame into objects and support planes with the method of
+/// docs/method.md (supervoxels, patch features, local area linkage with convexity, plane
+/// hypotheses, alpha-expansion, refinement).
+///
+/// Thread-safety: one Segmenter processes one frame at a time (Process is not reentrant);
+/// use one Segmenter per pipeline stage slot. Work inside a frame goes through the injected
+/// ThreadPool; results are identical for any pool size. Work buffers are kept between calls,
+/// so steady-state processing does not allocate.
+class Segmenter {
+ public:
+  Segmenter(const Segmenter&) = delete;
+  Segmenter& operator=(const Segmenter&) = delete;
+
+  /// @throws std::invalid_argument when `params` fail validation (naming the key).
+  /// `pool` may be null (single-threaded) and must outlive the Segmenter.
+  explicit Segmenter(const SegmenterParams& params, core::ThreadPool* pool = nullptr);
+  ~Segmenter();
+
+  /// Segments `cloud` (organized, metres, NaN = invalid; colour optional) and fills `result`.
+  /// Degenerate input (no valid point, a single plane, noise) yields a valid, possibly empty,
+  /// result; it never throws for frame content.
+  void Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+               SegmentationResult* result);
+
+  const SegmenterParams& params() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace clutterseg::pipeline

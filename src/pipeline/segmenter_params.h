@@ -1,0 +1,32 @@
+#pragma once
+
+#include "graph/linkage_params.h"
+#include "optimize/plane_params.h"
+#include "supervoxel/supervoxel_params.h"
+
+namespace clutterseg::pipeline {
+
+/// Refinement and object extraction (docs/method.md section 6).
+struct ObjectParams {
+  int min_object_points{150};          ///< smaller segments are dropped (label 0)
+  float support_min_points_fraction{0.05f};  ///< planes this large (of valid points) are support
+  float min_depth_m{0.3f};             ///< points nearer than this are ignored, metres
+  float max_depth_m{4.0f};             ///< points farther than this are ignored, metres
+
+  /// @throws std::invalid_argument naming the key and value.
+  void ValidateOrThrow() const;
+};
+
+/// All parameters of one Segmenter. Defaults are the measured best configuration; see
+/// docs/configuration.md for every key and docs/method.md for the paper's settings.
+struct SegmenterParams {
+  supervoxel::SupervoxelParams supervoxel;
+  graph::LinkageParams linkage;
+  optimize::PlaneParams planes;
+  ObjectParams objects;
+
+  /// @throws std::invalid_argument naming the key and value.
+  void ValidateOrThrow() const;
+};
+
+}  // namespace clutterseg::pipeline

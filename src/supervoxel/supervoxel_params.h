@@ -1,0 +1,25 @@
+#pragma once
+
+namespace clutterseg::supervoxel {
+
+/// Parameters of the octree supervoxelizer (VCCS, docs/method.md section 1).
+struct SupervoxelParams {
+  float voxel_resolution_m{0.0075f};  ///< leaf size of the voxel octree, metres
+  float seed_resolution_m{0.03f};     ///< spacing of supervoxel seeds, metres
+  float color_importance{0.0f};       ///< wc; 0 = geometry only (the paper)
+  float spatial_importance{1.0f};     ///< ws
+  float normal_importance{4.0f};      ///< wn
+  /// Voxelize in (x/z, y/z, log z) so voxel size grows with depth like the sensor's noise.
+  bool use_single_camera_transform{true};
+  int refinement_iterations{2};       ///< re-centre and regrow this many times
+  /// Seeds whose search volume holds fewer voxels than this fraction of a flat disc's are
+  /// dropped.
+  float min_seed_occupancy{0.25f};
+  /// Voxels farther than this from the camera are ignored, metres (0 = no limit).
+  float max_depth_m{0.0f};
+
+  /// @throws std::invalid_argument naming the key and value.
+  void ValidateOrThrow() const;
+};
+
+}  // namespace clutterseg::supervoxel

@@ -1,0 +1,34 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/types.h"
+
+namespace clutterseg::supervoxel {
+
+/// Output of the supervoxelizer for one organized frame. Supervoxels are numbered 0..N-1 in
+/// a deterministic order; all per-supervoxel arrays have N entries. The adjacency is a
+/// symmetric CSR graph: the neighbours of i are `adjacency[adjacency_offsets[i] ..
+/// adjacency_offsets[i + 1])`, sorted ascending, without self loops.
+struct Supervoxels {
+  int width{0};
+  int height{0};
+  /// Per pixel (v * width + u): supervoxel id, or -1 for an invalid point.
+  std::vector<int32_t> pixel_label;
+  /// Mean of the member points, metres, camera frame.
+  std::vector<core::Vec3f> centroid;
+  /// Unit normal of the member points' best plane, oriented towards the camera.
+  std::vector<core::Vec3f> normal;
+  /// Surface variation l3 / (l1 + l2 + l3) of the member points' covariance.
+  std::vector<float> curvature;
+  /// Number of member points (pixels).
+  std::vector<uint32_t> num_points;
+  std::vector<uint32_t> adjacency_offsets;  ///< N + 1 entries
+  std::vector<uint32_t> adjacency;          ///< 2 * edges entries
+
+  size_t size() const { return centroid.size(); }
+  size_t num_edges() const { return adjacency.size() / 2; }
+};
+
+}  // namespace clutterseg::supervoxel

@@ -1,0 +1,84 @@
+#include "core/thread_pool.h"
+
+#include <atomic>
+#include <numeric>
+#include <stdexcept>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace clutterseg::core {
+namespace {
+
+// Sums per chunk and combines in chunk order: must give the same bits for any pool size.
+double ChunkedSum(ThreadPool* pool, const std::vector<double>& values) {
+  const size_t grain = 1000;
+  std::vector<double> partial(ThreadPool::NumChunks(values.size(), grain), 0.0);
+  pool->ParallelFor(values.size(), grain, [&](size_t b, size_t e) {
+    double s = 0.0;
+    for (size_t i = b; i < e; ++i) s += values[i];
+    partial[b / grain] = s;
+  });
+  double total = 0.0;
+  for (double p : partial) total += p;
+  return total;
+}
+
+TEST(ThreadPool, CoversEveryIndexExactlyOnce) {
+  for (int threads : {1, 2, 4, 7}) {
+    ThreadPool dut(threads);
+    EXPECT_EQ(dut.num_threads(), threads);
+    std::vector<std::atomic<int>> hits(10007);
+    dut.ParallelFor(hits.size(), 64, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) hits[i].fetch_add(1);
+    });
+    for (size_t i = 0; i < hits.size(); ++i) ASSERT_EQ(hits[i].load(), 1) << "index " << i;
+  }
+}
+
+TEST(ThreadPool, ChunkedReductionIsIdenticalForAnyThreadCount) {
+  std::vector<double> values(123457);
+  for (size_t i = 0; i < values.size(); ++i) values[i] = 1.0 / (1.0 + static_cast<double>(i % 977));
+  ThreadPool one(1);
+  const double reference = ChunkedSum(&one, values);
+  for (int threads : {2, 3, 8}) {
+    ThreadPool dut(threads);
+    for (int rep = 0; rep < 5; ++rep) EXPECT_EQ(ChunkedSum(&dut, values), reference);
+  }
+}
+
+TEST(ThreadPool, RethrowsTheFirstChunkException) {
+  ThreadPool dut(3);
+  EXPECT_THROW(dut.ParallelFor(100, 10,
+                               [](size_t b, size_t) {
+                                 if (b == 50) throw std::runtime_error("chunk 5 failed");
+                               }),
+               std::runtime_error);
+  // The pool stays usable after a failure.
+  std::atomic<int> n{0};
+  dut.ParallelFor(10, 1, [&](size_t, size_t) { n++; });
+  EXPECT_EQ(n.load(), 10);
+}
+
+TEST(ThreadPool, NestedParallelForRunsInlineWithoutDeadlock) {
+  ThreadPool dut(2);
+  std::atomic<int> inner{0};
+  dut.ParallelFor(8, 1, [&](size_t, size_t) {
+    dut.ParallelFor(4, 1, [&](size_t, size_t) { inner++; });
+  });
+  EXPECT_EQ(inner.load(), 32);
+}
+
+TEST(ThreadPool, SubmitRunsTasksAndCarriesExceptions) {
+  ThreadPool dut(2);
+  std::atomic<int> ran{0};
+  std::vector<std::future<void>> futures;
+  for (int i = 0; i < 20; ++i) futures.push_back(dut.Submit([&] { ran++; }));
+  for (auto& f : futures) f.get();
+  EXPECT_EQ(ran.load(), 20);
+  auto bad = dut.Submit([] { throw std::logic_error("task failed"); });
+  EXPECT_THROW(bad.get(), std::logic_error);
+}
+
+}  // namespace
+}  // namespace clutterseg::core
