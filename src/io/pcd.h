@@ -8,13 +8,15 @@ namespace clutterseg::io {
 
 /// Limits that protect the readers against hostile headers.
 struct ReadLimits {
-  size_t max_points{64u * 1024u * 1024u};     ///< refuse files declaring more points
-  size_t max_header_bytes{64u * 1024u};       ///< refuse headers longer than this
+  size_t max_points{64u * 1024u * 1024u};  ///< refuse files declaring more points
+  size_t max_header_bytes{64u * 1024u};    ///< refuse headers longer than this
 };
 
 /// Reads a PCD v0.7 (or 0.6/0.5) file: organized or not, DATA ascii, binary or
 /// binary_compressed (LZF), fields x y z plus optional rgb/rgba and label in any order; other
-/// fields are skipped. Fills `xyz`, and `rgba` / `label` when present.
+/// fields are skipped. Fills `xyz`, and `rgba` / `label` when present (`rgba` from a field
+/// named `rgba`, or from packed `rgb`, which is reported with alpha 0xFF). Integer labels of
+/// any size are converted to uint32. Little-endian data; `VIEWPOINT` is ignored.
 /// @throws std::runtime_error naming the file and what is wrong (malformed header, truncated
 /// data, sizes beyond `limits`). Never allocates more than the file can justify.
 core::PointCloud ReadPcd(const std::string& path, const ReadLimits& limits = {});
@@ -22,6 +24,16 @@ core::PointCloud ReadPcd(const std::string& path, const ReadLimits& limits = {})
 /// Same, from an in-memory buffer; `name` is used in error messages.
 core::PointCloud ReadPcdFromMemory(const void* data, size_t size, const std::string& name,
                                    const ReadLimits& limits = {});
+
+/// Same as ReadPcd, reusing the storage of `cloud` (one frame after another allocates
+/// nothing once the buffers have grown). On error `cloud` holds unspecified contents.
+/// Thread-safe for distinct `cloud`s; each thread keeps its file and decoding buffers (up to
+/// 64 MiB each) for reuse.
+void ReadPcd(const std::string& path, const ReadLimits& limits, core::PointCloud* cloud);
+
+/// In-memory variant of the reusing ReadPcd.
+void ReadPcdFromMemory(const void* data, size_t size, const std::string& name,
+                       const ReadLimits& limits, core::PointCloud* cloud);
 
 /// PCD DATA encodings that WritePcd can produce.
 enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };

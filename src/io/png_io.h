@@ -8,28 +8,43 @@
 
 namespace clutterseg::io {
 
+/// All functions here are thread-safe (no shared state) and name the file in every error.
+/// Images larger than 16384 px per side, or larger than the file could decompress to, are
+/// refused before their buffers are allocated.
+
 /// Reads a 16-bit single-channel PNG of depth values. Values are multiplied by `scale_to_mm`
-/// (1 for millimetre PNGs, 0.2 for TUM's value/5000 m) and rounded.
-/// @throws std::runtime_error naming the file when it is not a 16-bit grey PNG or is corrupt.
+/// (1 for millimetre PNGs, 0.2 for TUM's value/5000 m), rounded and clamped to 65535.
+/// @throws std::runtime_error naming the file when it is not a 16-bit grey PNG (8-bit and
+/// colour PNGs are refused) or is corrupt. @throws std::invalid_argument when `scale_to_mm`
+/// is not a positive finite number.
 core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm = 1.0);
 
-/// Reads an 8-bit RGB or RGBA PNG (alpha dropped); grey PNGs are expanded.
+/// Reads a colour PNG as 8-bit RGB: RGB and RGBA (alpha dropped), grey (replicated) and
+/// palette images are expanded, 16-bit channels reduced to 8 bits.
 /// @throws std::runtime_error naming the file on error.
 core::ColorImage ReadColorPng(const std::string& path);
 
-/// Writes an 8-bit RGB PNG. @throws std::runtime_error on I/O failure.
+/// Writes an 8-bit RGB PNG, favouring speed over size (zlib level 1, Sub filter).
+/// @throws std::runtime_error naming the file on I/O failure.
 void WriteColorPng(const std::string& path, const core::ColorImage& image);
 
-/// Writes a 16-bit grey PNG (e.g. depth in mm). @throws std::runtime_error on I/O failure.
+/// Writes a 16-bit grey PNG (e.g. depth in mm), big-endian as PNG requires; same speed-first
+/// settings as WriteColorPng. @throws std::runtime_error naming the file on I/O failure.
 void WriteDepthPng(const std::string& path, const core::DepthImage& image);
 
 /// Reads intrinsics from a small JSON file with keys fx, fy, cx, cy and optionally width,
-/// height (also accepts the nested {"camera": {...}} / "intrinsic_matrix" forms used by the
-/// TUM and UCN data sets). @throws std::runtime_error naming the file and key.
+/// height (640x480 when absent). Also accepted: the members of a nested {"camera": {...}};
+/// cx/cy spelled x_offset/y_offset or ppx/ppy and width/height spelled img_width/img_height
+/// (UCN); a 3x3 camera matrix under "intrinsic_matrix" or "K", as 9 numbers row- or
+/// column-major (Open3D/TUM) or as 3 rows. Files over 1 MiB are refused.
+/// @throws std::runtime_error naming the file and the key or JSON position at fault, also
+/// when the values fail CameraIntrinsics::ValidateOrThrow().
 core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path);
 
-/// Reads a depth PNG plus intrinsics into an organized cloud (with colour when `color_png`
-/// is non-empty). @throws std::runtime_error on error.
+/// Reads a depth PNG plus intrinsics into an organized cloud (metres, camera frame) with
+/// core::DepthToPointCloud, with colour when `color_png` is non-empty.
+/// @throws std::runtime_error naming the file when a read fails or when the depth image, the
+/// intrinsics and the colour image disagree in size.
 core::PointCloud ReadDepthPngCloud(const std::string& depth_png,
                                    const core::CameraIntrinsics& intrinsics,
                                    const std::string& color_png = "", double scale_to_mm = 1.0);

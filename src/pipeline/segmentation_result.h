@@ -14,6 +14,7 @@ struct Plane {
   core::Vec3f normal;
   float d{0.f};
   uint32_t num_points{0};
+  float area_m2{0.f};      ///< metric area of the surface assigned to the plane
   bool is_support{false};  ///< table / floor / wall: its pixels are background (label 0)
 };
 

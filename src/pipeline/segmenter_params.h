@@ -9,7 +9,11 @@ namespace clutterseg::pipeline {
 /// Refinement and object extraction (docs/method.md section 6).
 struct ObjectParams {
   int min_object_points{150};          ///< smaller segments are dropped (label 0)
-  float support_min_points_fraction{0.05f};  ///< planes this large (of valid points) are support
+  /// A plane whose assigned surface covers at least this area is a support (table, floor,
+  /// wall) and becomes background, m^2. Object faces are smaller.
+  float support_min_area_m2{0.15f};
+  /// Object points closer than this to a support plane become background, metres (0 = off).
+  float support_snap_distance_m{0.0f};
   float min_depth_m{0.3f};             ///< points nearer than this are ignored, metres
   float max_depth_m{4.0f};             ///< points farther than this are ignored, metres
 

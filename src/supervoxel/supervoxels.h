@@ -22,6 +22,8 @@ struct Supervoxels {
   std::vector<core::Vec3f> normal;
   /// Surface variation l3 / (l1 + l2 + l3) of the member points' covariance.
   std::vector<float> curvature;
+  /// Eigenvalues l1 >= l2 >= l3 of the member points' covariance, square metres (x = l1).
+  std::vector<core::Vec3f> eigenvalues;
   /// Number of member points (pixels).
   std::vector<uint32_t> num_points;
   std::vector<uint32_t> adjacency_offsets;  ///< N + 1 entries

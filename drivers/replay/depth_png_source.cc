@@ -1,0 +1,188 @@
+#include "drivers/replay/depth_png_source.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+
+#include "drivers/replay/pcd_directory_source.h"
+#include "io/png_io.h"
+
+namespace clutterseg::drivers {
+namespace fs = std::filesystem;
+namespace {
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+std::vector<std::string> ListFiles(const fs::path& dir, const std::string& ext) {
+  std::vector<std::string> out;
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return out;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    if (e.is_regular_file() && Lower(e.path().extension().string()) == ext) {
+      out.push_back(e.path().filename().string());
+    }
+  }
+  internal::NaturalSort(&out);
+  return out;
+}
+
+bool IsFile(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+}  // namespace
+
+void DepthPngSourceOptions::ValidateOrThrow() const {
+  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
+    throw std::invalid_argument("depth PNG source option " + key + " = '" + value +
+                                "' is invalid (" + want + ")");
+  };
+  if (directory.empty()) fail("directory", directory, "expected a directory");
+  if (!(depth_scale_to_mm > 0.0 && depth_scale_to_mm < 1000.0)) {
+    fail("depth_scale_to_mm", std::to_string(depth_scale_to_mm), "expected (0, 1000)");
+  }
+  if (frame_period_us <= 0) {
+    fail("frame_period_us", std::to_string(frame_period_us), "expected > 0");
+  }
+  intrinsics.ValidateOrThrow();
+}
+
+DepthPngSource::DepthPngSource(const DepthPngSourceOptions& options) : options_(options) {
+  options_.ValidateOrThrow();
+}
+
+void DepthPngSource::Open() {
+  Close();
+  const fs::path dir(options_.directory);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    throw std::runtime_error("depth PNG source: '" + options_.directory + "' is not a directory");
+  }
+  std::vector<Entry> entries;
+  // Split layout: depth/NAME.png with colour in a sibling directory.
+  const std::vector<std::string> split = ListFiles(dir / "depth", ".png");
+  if (!split.empty()) {
+    for (const std::string& name : split) {
+      Entry e;
+      e.depth = (dir / "depth" / name).string();
+      for (const char* sub : {"color", "rgb", "image", "image_color"}) {
+        if (IsFile(dir / sub / name)) {
+          e.color = (dir / sub / name).string();
+          break;
+        }
+      }
+      entries.push_back(e);
+    }
+  } else {
+    for (const std::string& name : ListFiles(dir, ".png")) {
+      const std::string lower = Lower(name);
+      const size_t at = lower.rfind("depth");
+      if (at == std::string::npos) continue;
+      Entry e;
+      e.depth = (dir / name).string();
+      for (const char* word : {"color", "rgb", "image"}) {
+        std::string cname = name;
+        cname.replace(at, 5, word);
+        if (IsFile(dir / cname)) {
+          e.color = (dir / cname).string();
+          break;
+        }
+      }
+      entries.push_back(e);
+    }
+  }
+  if (entries.empty()) {
+    throw std::runtime_error("depth PNG source: no depth PNGs in '" + options_.directory +
+                             "' (expected *depth*.png or depth/*.png)");
+  }
+  std::string json = options_.intrinsics_json;
+  if (json.empty()) {
+    const std::vector<std::string> jsons = ListFiles(dir, ".json");
+    if (jsons.size() == 1) json = (dir / jsons.front()).string();
+  }
+  if (!json.empty()) {
+    intrinsics_ = io::ReadIntrinsicsJson(json);
+    intrinsics_source_ = json;
+  } else {
+    intrinsics_ = options_.intrinsics;
+    intrinsics_source_ = "given";
+  }
+  if (!options_.color) {
+    for (Entry& e : entries) e.color.clear();
+  }
+  entries_ = std::move(entries);
+  next_ = 0;
+  sequence_ = 0;
+  error_.clear();
+  open_ = true;
+}
+
+core::ReadStatus DepthPngSource::Read(int /*timeout_ms*/, core::RgbdFrame* frame) {
+  if (!open_) {
+    error_ = "Read() on a closed source";
+    return core::ReadStatus::kError;
+  }
+  if (next_ >= entries_.size()) {
+    if (!options_.loop) return core::ReadStatus::kEndOfStream;
+    next_ = 0;
+  }
+  const Entry& e = entries_[next_++];
+  try {
+    frame->depth = io::ReadDepthPng(e.depth, options_.depth_scale_to_mm);
+    if (!e.color.empty()) {
+      frame->color = io::ReadColorPng(e.color);
+      if (frame->color.width != frame->depth.width || frame->color.height != frame->depth.height) {
+        error_ = "depth PNG source: colour " + e.color + " is " +
+                 std::to_string(frame->color.width) + "x" + std::to_string(frame->color.height) +
+                 " but depth " + e.depth + " is " + std::to_string(frame->depth.width) + "x" +
+                 std::to_string(frame->depth.height);
+        return core::ReadStatus::kError;
+      }
+    } else {
+      frame->color.Reset(0, 0);
+    }
+  } catch (const std::exception& ex) {
+    error_ = ex.what();
+    return core::ReadStatus::kError;
+  }
+  frame->intrinsics = intrinsics_;
+  if (frame->depth.width != intrinsics_.width || frame->depth.height != intrinsics_.height) {
+    frame->intrinsics = intrinsics_.Scaled(frame->depth.width, frame->depth.height);
+  }
+  frame->utime = static_cast<int64_t>(sequence_) * options_.frame_period_us;
+  frame->sequence = sequence_++;
+  frame->receive_utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                             std::chrono::steady_clock::now().time_since_epoch())
+                             .count();
+  frame->camera_name = options_.camera_name;
+  return core::ReadStatus::kOk;
+}
+
+void DepthPngSource::Close() {
+  open_ = false;
+  entries_.clear();
+  next_ = 0;
+}
+
+std::string DepthPngSource::Describe() const {
+  std::ostringstream os;
+  os << "png:" << options_.directory;
+  if (!open_) return os.str() + " (closed)";
+  size_t with_color = 0;
+  for (const Entry& e : entries_) with_color += e.color.empty() ? 0 : 1;
+  os << " (" << entries_.size() << " depth frames, " << with_color << " with colour, intrinsics "
+     << intrinsics_.ToString() << " from " << intrinsics_source_;
+  if (options_.loop) os << ", loop";
+  os << ")";
+  return os.str();
+}
+
+}  // namespace clutterseg::drivers

@@ -1,0 +1,295 @@
+#include "drivers/replay/pcd_directory_source.h"
+
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+#include "io/pcd.h"
+
+namespace clutterseg::drivers {
+namespace fs = std::filesystem;
+
+namespace internal {
+
+namespace {
+bool NaturalLess(const std::string& a, const std::string& b) {
+  size_t i = 0;
+  size_t j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    if (da && db) {
+      size_t ie = i;
+      size_t je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      // Compare the numbers without leading zeros: longer is larger, then lexicographic.
+      size_t is = i;
+      size_t js = j;
+      while (is + 1 < ie && a[is] == '0') ++is;
+      while (js + 1 < je && b[js] == '0') ++js;
+      if (ie - is != je - js) return ie - is < je - js;
+      const int c = a.compare(is, ie - is, b, js, je - js);
+      if (c != 0) return c < 0;
+      if (ie - i != je - j) return ie - i < je - j;  // fewer leading zeros first
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  return a.size() - i < b.size() - j;
+}
+}  // namespace
+
+void NaturalSort(std::vector<std::string>* names) {
+  std::sort(names->begin(), names->end(), NaturalLess);
+}
+
+}  // namespace internal
+
+void PcdDirectorySourceOptions::ValidateOrThrow() const {
+  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
+    throw std::invalid_argument("PCD directory source option " + key + " = '" + value +
+                                "' is invalid (" + want + ")");
+  };
+  if (path.empty()) fail("path", path, "expected a directory or a .pcd file");
+  if (frame_period_us <= 0) {
+    fail("frame_period_us", std::to_string(frame_period_us), "expected > 0");
+  }
+  if (!estimate_intrinsics) intrinsics.ValidateOrThrow();
+}
+
+core::CameraIntrinsics EstimateIntrinsics(const core::PointCloud& cloud, double* rms_px) {
+  if (!cloud.organized() || cloud.width <= 1 ||
+      cloud.xyz.size() != static_cast<size_t>(cloud.width) * cloud.height) {
+    throw std::runtime_error("cannot estimate intrinsics from an unorganized cloud");
+  }
+  // Per axis: minimise sum (fx * a + cx - u)^2 with a = x / z (and likewise for v).
+  double sa = 0, saa = 0, su = 0, sau = 0;
+  double sb = 0, sbb = 0, sv = 0, sbv = 0;
+  double n = 0;
+  int min_u = std::numeric_limits<int>::max(), max_u = -1;
+  int min_v = std::numeric_limits<int>::max(), max_v = -1;
+  for (int v = 0; v < cloud.height; ++v) {
+    for (int u = 0; u < cloud.width; ++u) {
+      const core::Vec3f& p = cloud.xyz[static_cast<size_t>(v) * cloud.width + u];
+      if (!core::IsValid(p) || !(p.z > 0.f)) continue;
+      const double a = double{p.x} / p.z;
+      const double b = double{p.y} / p.z;
+      sa += a;
+      saa += a * a;
+      su += u;
+      sau += a * u;
+      sb += b;
+      sbb += b * b;
+      sv += v;
+      sbv += b * v;
+      n += 1;
+      min_u = std::min(min_u, u);
+      max_u = std::max(max_u, u);
+      min_v = std::min(min_v, v);
+      max_v = std::max(max_v, v);
+    }
+  }
+  if (n < 16) {
+    throw std::runtime_error("cannot estimate intrinsics: only " + std::to_string(int(n)) +
+                             " finite points");
+  }
+  if (max_u <= min_u || max_v <= min_v) {
+    throw std::runtime_error(
+        "cannot estimate intrinsics: the finite points span one row or "
+        "column only");
+  }
+  const double det_u = n * saa - sa * sa;
+  const double det_v = n * sbb - sb * sb;
+  if (!(std::abs(det_u) > 1e-12 * n * n) || !(std::abs(det_v) > 1e-12 * n * n)) {
+    throw std::runtime_error("cannot estimate intrinsics: degenerate point directions");
+  }
+  core::CameraIntrinsics k;
+  k.width = cloud.width;
+  k.height = cloud.height;
+  k.fx = (n * sau - sa * su) / det_u;
+  k.cx = (su - k.fx * sa) / n;
+  k.fy = (n * sbv - sb * sv) / det_v;
+  k.cy = (sv - k.fy * sb) / n;
+  if (!(k.fx > 0.0) || !(k.fy > 0.0) || !std::isfinite(k.cx) || !std::isfinite(k.cy)) {
+    std::ostringstream os;
+    os << "cannot estimate intrinsics: the fit gave " << k.ToString()
+       << " (the cloud is not a pinhole image)";
+    throw std::runtime_error(os.str());
+  }
+  if (rms_px != nullptr) {
+    double sq = 0;
+    for (int v = 0; v < cloud.height; ++v) {
+      for (int u = 0; u < cloud.width; ++u) {
+        const core::Vec3f& p = cloud.xyz[static_cast<size_t>(v) * cloud.width + u];
+        if (!core::IsValid(p) || !(p.z > 0.f)) continue;
+        const double du = k.fx * p.x / p.z + k.cx - u;
+        const double dv = k.fy * p.y / p.z + k.cy - v;
+        sq += du * du + dv * dv;
+      }
+    }
+    *rms_px = std::sqrt(sq / n);
+  }
+  return k;
+}
+
+void CloudToDepth(const core::PointCloud& cloud, const core::CameraIntrinsics& k,
+                  core::DepthImage* depth, core::ColorImage* color) {
+  auto to_mm = [](float z) -> uint16_t {
+    if (!std::isfinite(z) || !(z > 0.f)) return 0;
+    const double mm = std::round(double{z} * 1000.0);
+    return mm > 65535.0 ? uint16_t{0} : static_cast<uint16_t>(mm);
+  };
+  const bool with_color = cloud.has_color() && cloud.rgba.size() == cloud.xyz.size();
+  if (cloud.organized()) {
+    depth->width = cloud.width;
+    depth->height = cloud.height;
+    depth->data.resize(cloud.xyz.size());
+    for (size_t i = 0; i < cloud.xyz.size(); ++i) {
+      const core::Vec3f& p = cloud.xyz[i];
+      depth->data[i] = core::IsValid(p) ? to_mm(p.z) : uint16_t{0};
+    }
+    if (with_color) {
+      color->width = cloud.width;
+      color->height = cloud.height;
+      color->data.resize(cloud.rgba.size());
+      for (size_t i = 0; i < cloud.rgba.size(); ++i)
+        color->data[i] = core::UnpackRgba(cloud.rgba[i]);
+    } else {
+      color->Reset(0, 0);
+    }
+    return;
+  }
+  depth->Reset(k.width, k.height, 0);
+  if (with_color) {
+    color->Reset(k.width, k.height);
+  } else {
+    color->Reset(0, 0);
+  }
+  for (size_t i = 0; i < cloud.xyz.size(); ++i) {
+    const core::Vec3f& p = cloud.xyz[i];
+    if (!core::IsValid(p) || !(p.z > 0.f)) continue;
+    const double uf = std::round(k.fx * p.x / p.z + k.cx);
+    const double vf = std::round(k.fy * p.y / p.z + k.cy);
+    if (!(uf >= 0 && vf >= 0 && uf < k.width && vf < k.height)) continue;
+    const int u = static_cast<int>(uf);
+    const int v = static_cast<int>(vf);
+    const uint16_t mm = to_mm(p.z);
+    uint16_t& d = depth->at(u, v);
+    if (mm != 0 && (d == 0 || mm < d)) {
+      d = mm;
+      if (with_color) color->at(u, v) = core::UnpackRgba(cloud.rgba[i]);
+    }
+  }
+}
+
+PcdDirectorySource::PcdDirectorySource(const PcdDirectorySourceOptions& options)
+    : options_(options) {
+  options_.ValidateOrThrow();
+}
+
+void PcdDirectorySource::Open() {
+  Close();
+  std::error_code ec;
+  const fs::path root(options_.path);
+  if (fs::is_directory(root, ec)) {
+    for (const fs::directory_entry& e : fs::directory_iterator(root, ec)) {
+      if (!e.is_regular_file()) continue;
+      std::string ext = e.path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (ext == ".pcd") files_.push_back(e.path().string());
+    }
+    if (ec) {
+      throw std::runtime_error("PCD directory source: cannot list '" + options_.path +
+                               "': " + ec.message());
+    }
+    internal::NaturalSort(&files_);
+  } else if (fs::is_regular_file(root, ec)) {
+    files_.push_back(root.string());
+  } else {
+    throw std::runtime_error("PCD directory source: '" + options_.path +
+                             "' is neither a directory nor a file");
+  }
+  if (files_.empty()) {
+    throw std::runtime_error("PCD directory source: no .pcd files in '" + options_.path + "'");
+  }
+  if (options_.estimate_intrinsics) {
+    cloud_ = io::ReadPcd(files_.front());
+    try {
+      intrinsics_ = EstimateIntrinsics(cloud_, &fit_rms_px_);
+    } catch (const std::exception& e) {
+      const std::string first = files_.front();
+      files_.clear();
+      throw std::runtime_error("PCD directory source: " + first + ": " + e.what() +
+                               "; give the intrinsics explicitly");
+    }
+  } else {
+    intrinsics_ = options_.intrinsics;
+  }
+  next_ = 0;
+  sequence_ = 0;
+  error_.clear();
+  open_ = true;
+}
+
+core::ReadStatus PcdDirectorySource::Read(int /*timeout_ms*/, core::RgbdFrame* frame) {
+  if (!open_) {
+    error_ = "Read() on a closed source";
+    return core::ReadStatus::kError;
+  }
+  if (next_ >= files_.size()) {
+    if (!options_.loop) return core::ReadStatus::kEndOfStream;
+    next_ = 0;
+  }
+  const std::string& file = files_[next_++];
+  try {
+    cloud_ = io::ReadPcd(file);
+  } catch (const std::exception& e) {
+    error_ = e.what();
+    return core::ReadStatus::kError;
+  }
+  if (cloud_.organized() &&
+      (cloud_.width != intrinsics_.width || cloud_.height != intrinsics_.height)) {
+    frame->intrinsics = intrinsics_.Scaled(cloud_.width, cloud_.height);
+  } else {
+    frame->intrinsics = intrinsics_;
+  }
+  CloudToDepth(cloud_, frame->intrinsics, &frame->depth, &frame->color);
+  frame->utime = static_cast<int64_t>(sequence_) * options_.frame_period_us;
+  frame->sequence = sequence_++;
+  frame->receive_utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                             std::chrono::steady_clock::now().time_since_epoch())
+                             .count();
+  frame->camera_name = options_.camera_name;
+  return core::ReadStatus::kOk;
+}
+
+void PcdDirectorySource::Close() {
+  open_ = false;
+  files_.clear();
+  next_ = 0;
+}
+
+std::string PcdDirectorySource::Describe() const {
+  std::ostringstream os;
+  os << "pcd:" << options_.path;
+  if (!open_) return os.str() + " (closed)";
+  os << " (" << files_.size() << " file" << (files_.size() == 1 ? "" : "s") << ", intrinsics "
+     << intrinsics_.ToString();
+  if (options_.estimate_intrinsics) os << " fitted, rms " << fit_rms_px_ << " px";
+  if (options_.loop) os << ", loop";
+  os << ")";
+  return os.str();
+}
+
+}  // namespace clutterseg::drivers

@@ -1,0 +1,87 @@
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/camera_intrinsics.h"
+#include "core/frame_source.h"
+#include "core/point_cloud.h"
+
+namespace clutterseg::drivers {
+
+/// Options of PcdDirectorySource.
+struct PcdDirectorySourceOptions {
+  /// A directory of *.pcd files (read in natural order: "learn2" before "learn10") or one
+  /// .pcd file.
+  std::string path;
+  /// true: fit the intrinsics to the first organized cloud (see EstimateIntrinsics); false:
+  /// use `intrinsics`.
+  bool estimate_intrinsics{true};
+  core::CameraIntrinsics intrinsics;  ///< used when estimate_intrinsics is false
+  bool loop{false};                   ///< start again after the last file
+  /// PCD files carry no time: frame k gets utime = k * frame_period_us (k counts across loops).
+  int64_t frame_period_us{33333};
+  std::string camera_name{"camera"};  ///< copied into RgbdFrame::camera_name
+
+  /// @throws std::invalid_argument naming the key and value when an option is out of range.
+  void ValidateOrThrow() const;
+};
+
+/// Least-squares pinhole fit to an organized cloud: for every finite point with z > 0 at
+/// pixel (u, v), u = fx * x / z + cx and v = fy * y / z + cy. Each axis is an independent
+/// linear regression (two unknowns) over all finite points, solved in closed form in double
+/// precision. `rms_px`, when non-null, receives the root-mean-square reprojection error.
+/// @throws std::runtime_error when the cloud is not organized, has fewer than 16 finite
+/// points, its points do not span at least two columns and two rows, or the fit gives
+/// non-positive focal lengths.
+core::CameraIntrinsics EstimateIntrinsics(const core::PointCloud& cloud, double* rms_px = nullptr);
+
+/// Converts a cloud to a depth image (millimetres, rounded; 0 where invalid or z <= 0) and
+/// colour (from rgba, empty when the cloud has none). Organized clouds map point (u, v) to
+/// pixel (u, v); unorganized clouds are projected with `intrinsics` keeping the nearest point
+/// per pixel. Reuses the buffers of `depth` and `color`.
+void CloudToDepth(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+                  core::DepthImage* depth, core::ColorImage* color);
+
+/// A core::FrameSource replaying PCD files (e.g. the mOSD / OSD data sets) as RGB-D frames,
+/// so that the pipeline's back-projection reproduces the clouds' xyz within the 1 mm depth
+/// quantisation. Thread-safety: as core::FrameSource.
+class PcdDirectorySource final : public core::FrameSource {
+ public:
+  /// @throws std::invalid_argument when `options` are invalid.
+  explicit PcdDirectorySource(const PcdDirectorySourceOptions& options);
+
+  /// Lists the files and fixes the intrinsics. @throws std::runtime_error naming the path when
+  /// there are no PCD files or the intrinsics cannot be estimated from the first one.
+  void Open() override;
+  /// Reads the next file (the timeout is not needed: files are read synchronously). A file
+  /// that cannot be read gives kError naming it; the next Read continues with the next file.
+  core::ReadStatus Read(int timeout_ms, core::RgbdFrame* frame) override;
+  void Close() override;
+  bool IsLive() const override { return false; }
+  std::string Describe() const override;
+  std::string last_error() const override { return error_; }
+
+  const std::vector<std::string>& files() const { return files_; }
+  /// Intrinsics attached to the frames (valid after Open()).
+  const core::CameraIntrinsics& intrinsics() const { return intrinsics_; }
+
+ private:
+  const PcdDirectorySourceOptions options_;
+  std::vector<std::string> files_;
+  size_t next_{0};
+  uint64_t sequence_{0};
+  bool open_{false};
+  core::CameraIntrinsics intrinsics_;
+  double fit_rms_px_{0.0};
+  core::PointCloud cloud_;
+  std::string error_;
+};
+
+namespace internal {
+/// Sorts file names so that embedded numbers compare by value ("a2" < "a10").
+void NaturalSort(std::vector<std::string>* names);
+}  // namespace internal
+
+}  // namespace clutterseg::drivers

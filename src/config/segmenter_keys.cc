@@ -1,0 +1,59 @@
+#include "config/segmenter_keys.h"
+
+namespace clutterseg::config {
+
+// The one place that maps YAML keys under `segmenter:` to pipeline::SegmenterParams fields.
+// Key path = "<section>.<field>"; the type (bool, int, float, ...) comes from the field.
+#define CLUTTERSEG_SEGMENTER_KEY(section, field)                                          \
+  internal::MakeKey(#section "." #field, &pipeline::SegmenterParams::section,             \
+                    &decltype(pipeline::SegmenterParams::section)::field)
+
+const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
+  static const std::vector<internal::Key<pipeline::SegmenterParams>> kKeys = {
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, voxel_resolution_m),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, seed_resolution_m),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, color_importance),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, spatial_importance),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, normal_importance),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, use_single_camera_transform),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, refinement_iterations),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, min_seed_occupancy),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, max_depth_m),
+
+      CLUTTERSEG_SEGMENTER_KEY(linkage, concavity_tolerance_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, use_sanity_criterion),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, use_extended_convexity),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, extended_convexity_k),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, use_type_filter),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, cut_on_type_change),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, convexity_epsilon),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, min_segment_supervoxels),
+
+      CLUTTERSEG_SEGMENTER_KEY(planes, inlier_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(planes, inlier_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(planes, min_inlier_patches),
+      CLUTTERSEG_SEGMENTER_KEY(planes, max_seed_curvature),
+      CLUTTERSEG_SEGMENTER_KEY(planes, max_planes),
+      CLUTTERSEG_SEGMENTER_KEY(planes, duplicate_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(planes, duplicate_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(planes, smoothness_weight),
+      CLUTTERSEG_SEGMENTER_KEY(planes, feature_weight),
+      CLUTTERSEG_SEGMENTER_KEY(planes, no_plane_cost_factor),
+      CLUTTERSEG_SEGMENTER_KEY(planes, max_expansion_cycles),
+      CLUTTERSEG_SEGMENTER_KEY(planes, normal_mismatch_cost),
+      CLUTTERSEG_SEGMENTER_KEY(planes, max_candidate_trials),
+      CLUTTERSEG_SEGMENTER_KEY(planes, min_patch_points),
+      CLUTTERSEG_SEGMENTER_KEY(planes, refit_iterations),
+
+      CLUTTERSEG_SEGMENTER_KEY(objects, min_object_points),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_min_area_m2),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_snap_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, min_depth_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, max_depth_m),
+  };
+  return kKeys;
+}
+
+#undef CLUTTERSEG_SEGMENTER_KEY
+
+}  // namespace clutterseg::config

@@ -1,0 +1,110 @@
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "config/daemon_config.h"
+#include "core/frame_source.h"
+#include "pipeline/segmenter_params.h"
+
+namespace clutterseg::daemon {
+
+class LcmBus;
+
+/// Process exit codes of `clutterseg`.
+enum ExitCode : int {
+  kExitOk = 0,                 ///< stopped by a signal, --max-frames reached or end of recording
+  kExitRuntimeError = 1,       ///< a source or processing failure while running
+  kExitBadConfig = 2,          ///< bad command line or configuration file
+  kExitSourceUnavailable = 3,  ///< the frame source cannot be opened
+  kExitLcmUnavailable = 4,     ///< the LCM URL cannot be opened (e.g. no multicast route)
+};
+
+/// The frame source could not be opened at start-up.
+class SourceOpenError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// State of the frame source as reported in status_t.device_state.
+enum class DeviceState : int8_t {
+  kStarting = 0,
+  kStreaming = 1,
+  kReconnecting = 2,
+  kEndOfStream = 3,
+  kError = 4,
+};
+const char* ToString(DeviceState state);
+
+/// A snapshot of the daemon's counters.
+struct DaemonStats {
+  uint64_t frames_captured{0};   ///< frames read from the source
+  uint64_t frames_processed{0};  ///< frames segmented
+  uint64_t frames_published{0};  ///< objects_t messages published
+  uint64_t frames_dropped{0};    ///< dropped by the frame queue (oldest first)
+  uint64_t frames_discarded{0};  ///< waiting frames not processed because of a stop request
+  uint64_t publish_failures{0};
+  uint64_t reconnect_attempts{0};
+  uint64_t param_reloads{0};     ///< segmenter parameter sets applied after start
+  DeviceState device_state{DeviceState::kStarting};
+};
+
+/// The running daemon: a capture thread (FrameSource -> drop-oldest frame queue), a dispatcher
+/// and `pipeline_depth` lanes that segment consecutive frames concurrently (one Segmenter
+/// each, sharing one ThreadPool for the work inside a frame), and a publisher thread that
+/// publishes objects_t / label_image_t in frame order and status_t every status period (plus
+/// one status line on stderr).
+///
+/// Live sources never block on processing (the queue drops the oldest frame); sources that
+/// are not live (recordings in lockstep) wait for room instead, so every frame is published.
+/// A lost device is closed and reopened with exponential backoff. No exception leaves a
+/// thread: errors are recorded, reported in status_t and end the run with exit code 1.
+///
+/// Thread-safety: Start, WaitFor and Join from the owning thread; RequestStop,
+/// UpdateSegmenterParams, stats() and error() from any thread.
+class Daemon {
+ public:
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+  Daemon(Daemon&&) = delete;
+  Daemon& operator=(Daemon&&) = delete;
+
+  /// `bus` must outlive the daemon and is used only by its publisher thread once started.
+  /// @throws std::invalid_argument when `config` is invalid.
+  Daemon(const config::DaemonConfig& config, std::unique_ptr<core::FrameSource> source,
+         LcmBus* bus);
+  /// Requests a stop and joins all threads.
+  ~Daemon();
+
+  /// Opens the source on the calling thread, then starts the threads.
+  /// @throws SourceOpenError when the source cannot be opened.
+  void Start();
+  /// Asks for an orderly stop: capture stops, frames being segmented finish and are
+  /// published, waiting frames are discarded, a last status_t is sent. Returns at once.
+  void RequestStop();
+  /// Replaces the segmentation parameters; each lane applies them before its next frame.
+  /// @throws std::invalid_argument when `params` are invalid (the old ones stay).
+  void UpdateSegmenterParams(const pipeline::SegmenterParams& params);
+  /// Waits until every thread has finished (end of stream, max_frames, stop or error) or
+  /// `timeout` passes; returns true when finished.
+  bool WaitFor(std::chrono::milliseconds timeout);
+  /// Waits for the end and joins the threads.
+  void Join();
+
+  /// kExitOk, or kExitRuntimeError after a failure (valid once finished).
+  int exit_code() const;
+  /// The first error recorded, empty when none.
+  std::string error() const;
+  DaemonStats stats() const;
+  /// Description of the source, e.g. for logs.
+  std::string source_description() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace clutterseg::daemon

@@ -1,0 +1,235 @@
+// clutterseg: the segmentation daemon. Reads frames from a camera, recording, directory or
+// the synthetic generator, segments them and publishes the results over LCM.
+//
+// Exit codes: 0 ok (signal, --max-frames, end of recording), 1 runtime failure, 2 bad command
+// line or configuration, 3 source cannot be opened, 4 LCM unavailable.
+
+#include <poll.h>
+#include <signal.h>
+#include <sys/signalfd.h>
+#include <unistd.h>
+
+#include <CLI/CLI.hpp>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "config/daemon_config.h"
+#include "daemon/daemon.h"
+#include "daemon/lcm_bus.h"
+#include "daemon/log.h"
+#include "daemon/source_factory.h"
+
+namespace clutterseg::daemon {
+namespace {
+
+using config::LogLevel;
+
+struct CommandLine {
+  std::string config_path;
+  std::string source;
+  std::string speed;
+  std::string lcm_url;
+  int64_t max_frames{-1};
+  std::string png_dir;
+  std::string log_level;
+  int threads{-1};
+  bool loop{false};
+  bool print_config{false};
+  std::vector<std::string> sets;
+};
+
+// The configuration: file (or defaults), then command-line options, then --set overrides.
+// @throws config::ConfigError.
+config::DaemonConfig BuildConfig(const CommandLine& cl) {
+  config::DaemonConfig c =
+      cl.config_path.empty() ? config::DaemonConfig{} : config::LoadConfig(cl.config_path);
+  if (!cl.source.empty()) config::SetKey("source", cl.source, &c);
+  if (!cl.speed.empty()) config::SetKey("speed", cl.speed, &c);
+  if (!cl.lcm_url.empty()) config::SetKey("lcm.url", cl.lcm_url, &c);
+  if (cl.max_frames >= 0) c.max_frames = cl.max_frames;
+  if (!cl.png_dir.empty()) c.png_dir = cl.png_dir;
+  if (!cl.log_level.empty()) config::SetKey("log.level", cl.log_level, &c);
+  if (cl.threads >= 0) c.threads = cl.threads;
+  if (cl.loop) c.loop = true;
+  for (const std::string& s : cl.sets) config::ApplyOverride(s, &c);
+  try {
+    c.ValidateOrThrow();
+  } catch (const std::invalid_argument& e) {
+    throw config::ConfigError(std::string("command line: ") + e.what());
+  }
+  return c;
+}
+
+// Waits for the daemon while handling signals from `signal_fd`.
+void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
+  bool stopping = false;
+  for (;;) {
+    pollfd pfd{signal_fd, POLLIN, 0};
+    if (poll(&pfd, 1, 100) > 0 && (pfd.revents & POLLIN)) {
+      signalfd_siginfo info{};
+      if (read(signal_fd, &info, sizeof(info)) == static_cast<ssize_t>(sizeof(info))) {
+        const int sig = static_cast<int>(info.ssi_signo);
+        if (sig == SIGHUP) {
+          if (cl.config_path.empty()) {
+            Log(LogLevel::kWarn, "SIGHUP: no --config file, nothing to reload");
+          } else {
+            try {
+              const config::DaemonConfig fresh = BuildConfig(cl);
+              daemon->UpdateSegmenterParams(fresh.segmenter);
+              Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
+                                       " (applied from the next frame)");
+            } catch (const std::exception& e) {
+              Log(LogLevel::kError, std::string("SIGHUP: reload failed, keeping the current "
+                                                "parameters: ") + e.what());
+            }
+          }
+        } else if (!stopping) {
+          stopping = true;
+          Log(LogLevel::kInfo, std::string(strsignal(sig)) + ": stopping");
+          daemon->RequestStop();
+        } else {
+          Log(LogLevel::kError, std::string(strsignal(sig)) + " again: exiting at once");
+          std::_Exit(kExitRuntimeError);
+        }
+      }
+    }
+    if (daemon->WaitFor(std::chrono::milliseconds(0))) return;
+  }
+}
+
+int Run(int argc, char** argv) {
+  // Signals are taken through a signalfd: block them before any thread exists so that every
+  // thread inherits the mask.
+  sigset_t mask;
+  sigemptyset(&mask);
+  sigaddset(&mask, SIGINT);
+  sigaddset(&mask, SIGTERM);
+  sigaddset(&mask, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &mask, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+  const int signal_fd = signalfd(-1, &mask, SFD_CLOEXEC);
+  if (signal_fd < 0) {
+    std::perror("clutterseg: signalfd");
+    return kExitRuntimeError;
+  }
+
+  CommandLine cl;
+  CLI::App app{"clutterseg: training-free RGB-D tabletop segmentation daemon (publishes LCM)"};
+  app.footer(
+      "Exit codes: 0 ok (signal, --max-frames or end of recording), 1 runtime failure, 2 bad "
+      "command line or configuration, 3 source cannot be opened, 4 LCM unavailable.\n"
+      "Signals: SIGINT/SIGTERM finish the frames in flight and exit; SIGHUP reloads the "
+      "segmenter parameters from --config.");
+  app.add_option("--config", cl.config_path, "YAML configuration file (see config/clutterseg.yaml)");
+  app.add_option("--source", cl.source,
+                 "device | device:URI | FILE.oni | DIR (PCD or depth PNG frames) | synthetic");
+  app.add_option("--speed", cl.speed, "replay speed of recordings: realtime | max");
+  app.add_option("--lcm-url", cl.lcm_url,
+                 "LCM URL, e.g. udpm://239.255.76.67:7667?ttl=0, memq://, "
+                 "file:///abs/out.lcmlog?mode=w");
+  app.add_option("--max-frames", cl.max_frames, "stop after publishing N frames (0 = no limit)");
+  app.add_option("--png-dir", cl.png_dir, "write a label overlay PNG per frame into DIR");
+  app.add_option("--threads", cl.threads, "worker threads (0 = number of cores)");
+  app.add_option("--log-level", cl.log_level, "debug | info | warn | error");
+  app.add_flag("--loop", cl.loop, "restart recordings at their end");
+  app.add_option("--set", cl.sets, "override any config key: --set segmenter.planes.max_planes=4")
+      ->type_name("KEY=VALUE");
+  app.add_flag("--print-config", cl.print_config, "print the effective configuration and exit");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? kExitOk : kExitBadConfig;
+  }
+
+  config::DaemonConfig cfg;
+  try {
+    cfg = BuildConfig(cl);
+  } catch (const config::ConfigError& e) {
+    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    return kExitBadConfig;
+  }
+  if (cl.print_config) {
+    std::fputs(config::ConfigToYaml(cfg).c_str(), stdout);
+    return kExitOk;
+  }
+  SetLogLevel(cfg.log_level);
+
+  std::unique_ptr<LcmBus> bus;
+  try {
+    bus = std::make_unique<LcmBus>(cfg.lcm_url);
+  } catch (const LcmUnavailableError& e) {
+    std::fprintf(stderr, "clutterseg: %s\n", e.what());
+    return kExitLcmUnavailable;
+  }
+
+  std::unique_ptr<core::FrameSource> source;
+  try {
+    source = MakeSource(cfg);
+  } catch (const SourceOpenError& e) {
+    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    return kExitSourceUnavailable;
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    return kExitBadConfig;
+  }
+  try {
+    InitializeSourceDrivers(cfg);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    return kExitSourceUnavailable;
+  }
+
+  int code = kExitOk;
+  {
+    std::unique_ptr<Daemon> daemon;
+    try {
+      daemon = std::make_unique<Daemon>(cfg, std::move(source), bus.get());
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+      return kExitBadConfig;
+    }
+    try {
+      daemon->Start();
+    } catch (const SourceOpenError& e) {
+      std::fprintf(stderr, "clutterseg: cannot open the source '%s': %s\n", cfg.source.c_str(),
+                   e.what());
+      daemon.reset();
+      ShutdownSourceDrivers();
+      return kExitSourceUnavailable;
+    }
+    Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() +
+                             " (" + cfg.objects_channel + ")");
+    RunUntilDone(cl, signal_fd, daemon.get());
+    daemon->Join();
+    code = daemon->exit_code();
+    const DaemonStats s = daemon->stats();
+    Log(LogLevel::kInfo,
+        "done: " + std::to_string(s.frames_captured) + " captured, " +
+            std::to_string(s.frames_processed) + " processed, " +
+            std::to_string(s.frames_published) + " published, " +
+            std::to_string(s.frames_dropped) + " dropped, " + std::to_string(s.publish_failures) +
+            " publish failures" + (code == kExitOk ? "" : "; error: " + daemon->error()));
+  }
+  ShutdownSourceDrivers();
+  close(signal_fd);
+  return code;
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon
+
+int main(int argc, char** argv) {
+  try {
+    return clutterseg::daemon::Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "clutterseg: fatal: %s\n", e.what());
+    return clutterseg::daemon::kExitRuntimeError;
+  }
+}

@@ -1,0 +1,51 @@
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "config/daemon_config.h"
+#include "core/camera_intrinsics.h"
+#include "core/types.h"
+#include "pipeline/segmentation_result.h"
+
+namespace clutterseg {
+class objects_t;
+class label_image_t;
+}  // namespace clutterseg
+
+namespace clutterseg::daemon {
+
+/// Frame metadata carried into the messages of one frame.
+struct FrameInfo {
+  int64_t utime{0};      ///< capture time, microseconds
+  int64_t frame_seq{0};  ///< source frame number
+  std::string camera_name;
+  core::CameraIntrinsics intrinsics;
+};
+
+/// Fills an objects_t from one frame's segmentation, reusing `msg`'s vectors. Timing fields
+/// other than the stage times (queue_ms, capture_to_publish_ms) are left for the caller.
+void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInfo& info,
+                      clutterseg::objects_t* msg);
+
+/// Encodes a label image (ids must fit in uint16; larger ones are clamped to 65535) into a
+/// label_image_t with the given compression, reusing `msg`'s buffer.
+/// @throws std::runtime_error when zlib fails.
+void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
+                      config::LabelCompression compression, clutterseg::label_image_t* msg);
+
+/// Decodes any label_image_t compression back into a label image.
+/// @throws std::runtime_error naming the problem when the message is malformed.
+void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* labels);
+
+/// Number of per-stage times in pipeline::StageTimes (total excluded).
+inline constexpr size_t kNumStages = 9;
+/// Names of the per-stage times, in the order used by status_t.
+const std::array<std::string, kNumStages>& StageNames();
+/// The stage times of `times` in StageNames() order, milliseconds.
+std::array<double, kNumStages> StageValues(const pipeline::StageTimes& times);
+
+}  // namespace clutterseg::daemon

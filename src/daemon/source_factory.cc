@@ -1,0 +1,123 @@
+#include "daemon/source_factory.h"
+
+#include <filesystem>
+#include <stdexcept>
+
+#include "daemon/daemon.h"
+
+#ifdef CLUTTERSEG_HAVE_OPENNI2
+#include "drivers/openni2/openni2_source.h"
+#endif
+#ifdef CLUTTERSEG_HAVE_REPLAY
+#include "drivers/replay/depth_png_source.h"
+#include "drivers/replay/pcd_directory_source.h"
+#endif
+
+namespace clutterseg::daemon {
+namespace {
+
+bool EndsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+bool HasPcdFiles(const std::filesystem::path& dir) {
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
+    if (entry.path().extension() == ".pcd") return true;
+  }
+  return false;
+}
+
+[[noreturn]] void NotBuilt(const std::string& source, const char* what) {
+  throw std::invalid_argument("source '" + source + "': " + what + " support is not built into "
+                              "this binary");
+}
+
+}  // namespace
+
+SourceKind ClassifySource(const std::string& source) {
+  if (source == "device" || source.rfind("device:", 0) == 0) return SourceKind::kDevice;
+  if (source == "synthetic") return SourceKind::kSynthetic;
+  if (EndsWith(source, ".oni") || EndsWith(source, ".ONI")) return SourceKind::kOniFile;
+  std::error_code ec;
+  if (std::filesystem::is_directory(source, ec)) {
+    return HasPcdFiles(source) ? SourceKind::kPcdDirectory : SourceKind::kDepthPngDirectory;
+  }
+  if (std::filesystem::exists(source, ec)) {
+    throw SourceOpenError("source '" + source +
+                                "' is a file but not an .oni recording (expected device, "
+                                "device:URI, FILE.oni, DIR or synthetic)");
+  }
+  throw SourceOpenError("source '" + source +
+                              "' does not exist (expected device, device:URI, FILE.oni, DIR "
+                              "or synthetic)");
+}
+
+std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config) {
+  const std::string& source = config.source;
+  const bool max_speed = config.speed == config::Speed::kMax;
+  switch (ClassifySource(source)) {
+    case SourceKind::kDevice:
+    case SourceKind::kOniFile: {
+#ifdef CLUTTERSEG_HAVE_OPENNI2
+      drivers::OpenNI2SourceOptions o;
+      if (source.rfind("device:", 0) == 0) {
+        o.uri = source.substr(7);
+      } else if (source != "device") {
+        o.uri = source;
+      }
+      o.replay_speed = max_speed ? -1.0 : 1.0;
+      o.loop = config.loop;
+      o.camera_name = config.camera_name;
+      o.ValidateOrThrow();
+      return std::make_unique<drivers::OpenNI2Source>(o);
+#else
+      NotBuilt(source, "OpenNI2 (device and .oni)");
+#endif
+    }
+    case SourceKind::kPcdDirectory: {
+#ifdef CLUTTERSEG_HAVE_REPLAY
+      drivers::PcdDirectorySourceOptions o;
+      o.path = source;
+      o.loop = config.loop;
+      o.camera_name = config.camera_name;
+      o.ValidateOrThrow();
+      return std::make_unique<drivers::PcdDirectorySource>(o);
+#else
+      NotBuilt(source, "PCD directory");
+#endif
+    }
+    case SourceKind::kDepthPngDirectory: {
+#ifdef CLUTTERSEG_HAVE_REPLAY
+      drivers::DepthPngSourceOptions o;
+      o.directory = source;
+      o.loop = config.loop;
+      o.camera_name = config.camera_name;
+      o.ValidateOrThrow();
+      return std::make_unique<drivers::DepthPngSource>(o);
+#else
+      NotBuilt(source, "depth PNG directory");
+#endif
+    }
+    case SourceKind::kSynthetic:
+      NotBuilt(source, "synthetic scene");
+  }
+  throw std::invalid_argument("source '" + source + "': unknown kind");
+}
+
+void InitializeSourceDrivers(const config::DaemonConfig& config) {
+#ifdef CLUTTERSEG_HAVE_OPENNI2
+  const SourceKind kind = ClassifySource(config.source);
+  if (kind == SourceKind::kDevice || kind == SourceKind::kOniFile) drivers::InitializeOpenNI2();
+#else
+  (void)config;
+#endif
+}
+
+void ShutdownSourceDrivers() {
+#ifdef CLUTTERSEG_HAVE_OPENNI2
+  drivers::ShutdownOpenNI2();
+#endif
+}
+
+}  // namespace clutterseg::daemon

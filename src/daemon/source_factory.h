@@ -1,0 +1,33 @@
+#pragma once
+
+#include <memory>
+#include <string>
+
+#include "config/daemon_config.h"
+#include "core/frame_source.h"
+
+namespace clutterseg::daemon {
+
+/// What a `source` string names.
+enum class SourceKind { kDevice, kOniFile, kPcdDirectory, kDepthPngDirectory, kSynthetic };
+
+/// Classifies `source`: "device" or "device:URI", "synthetic", a path ending in ".oni", or an
+/// existing directory (PCD files -> kPcdDirectory, otherwise depth PNGs).
+/// @throws SourceOpenError naming the value when it names no existing file or directory
+/// (or a file that is not an .oni recording).
+SourceKind ClassifySource(const std::string& source);
+
+/// Builds (does not open) the frame source named by `config.source`, configured from
+/// `config` (speed, loop, camera name). @throws SourceOpenError when the path does not
+/// exist, std::invalid_argument when the source kind is not built into this binary or its
+/// options are invalid.
+std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config);
+
+/// Process-wide set-up some sources need before other threads start (OpenNI2 changes the
+/// working directory while it initializes). Call once from main() when `config.source` is a
+/// device or an .oni file. @throws std::runtime_error when the driver cannot initialize.
+void InitializeSourceDrivers(const config::DaemonConfig& config);
+/// Counterpart of InitializeSourceDrivers, after every source is closed.
+void ShutdownSourceDrivers();
+
+}  // namespace clutterseg::daemon

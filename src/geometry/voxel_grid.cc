@@ -1,0 +1,473 @@
+#include "geometry/voxel_grid.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "core/assert.h"
+
+namespace clutterseg::geometry {
+namespace {
+
+constexpr int kFieldBits = 21;
+constexpr int32_t kOffset = 1 << 20;
+// Coordinates are kept strictly inside (-kOffset + 1, kOffset - 1) so that the packed keys of
+// all 26 neighbours stay valid.
+constexpr int32_t kCoordLimit = kOffset - 2;
+constexpr uint64_t kFieldMask = (uint64_t{1} << kFieldBits) - 1;
+constexpr uint64_t kInvalidKey = ~uint64_t{0};
+constexpr size_t kBandPoints = 32768;
+constexpr size_t kVoxelGrain = 2048;
+
+// Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
+inline uint64_t PackKey(int32_t x, int32_t y, int32_t z) {
+  return (static_cast<uint64_t>(x + kOffset) << (2 * kFieldBits)) |
+         (static_cast<uint64_t>(y + kOffset) << kFieldBits) | static_cast<uint64_t>(z + kOffset);
+}
+
+inline VoxelCoord UnpackKey(uint64_t key) {
+  return VoxelCoord{static_cast<int32_t>((key >> (2 * kFieldBits)) & kFieldMask) - kOffset,
+                    static_cast<int32_t>((key >> kFieldBits) & kFieldMask) - kOffset,
+                    static_cast<int32_t>(key & kFieldMask) - kOffset};
+}
+
+// Floor of |q| < 2^20 without a libm call (no SSE4.1 rounding is assumed).
+inline int32_t FastFloor(float q) {
+  const int32_t i = static_cast<int32_t>(q);
+  return i - (static_cast<float>(i) > q ? 1 : 0);
+}
+
+// Quantises a point; false for non-finite points, z <= 0 with the camera transform, depth
+// beyond max_depth_m (> 0), and coordinates outside the key range. NaN fails every
+// comparison, so no separate finiteness test is needed.
+// ln z of the last point: depth images repeat depths along rows, and the logarithm is the most
+// expensive part of quantising.
+struct LogCache {
+  float z{-1.f};
+  float scaled_log{0.f};
+};
+
+inline bool QuantizePoint(const core::Vec3f& p, bool camera, float inv_res, float max_depth_m,
+                          LogCache* cache, VoxelCoord* c) {
+  if (max_depth_m > 0.f && p.z > max_depth_m) return false;
+  float qx, qy, qz;
+  if (camera) {
+    if (!(p.z > 0.f)) return false;
+    const float inv_z = 1.0f / p.z;
+    qx = p.x * inv_z * inv_res;
+    qy = p.y * inv_z * inv_res;
+    if (p.z != cache->z) {
+      cache->z = p.z;
+      cache->scaled_log = std::log(p.z) * inv_res;
+    }
+    qz = cache->scaled_log;
+  } else {
+    qx = p.x * inv_res;
+    qy = p.y * inv_res;
+    qz = p.z * inv_res;
+  }
+  constexpr float kLim = static_cast<float>(kCoordLimit);
+  if (!(std::fabs(qx) < kLim && std::fabs(qy) < kLim && std::fabs(qz) < kLim)) return false;
+  c->x = FastFloor(qx);
+  c->y = FastFloor(qy);
+  c->z = FastFloor(qz);
+  return true;
+}
+
+// Runs fn(begin, end) over [0, n) on the pool, or inline without one. Chunk boundaries depend
+// only on n and grain.
+template <typename Fn>
+void ForChunks(core::ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
+  if (n == 0) return;
+  if (pool == nullptr || n <= grain) {
+    for (size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
+    return;
+  }
+  pool->ParallelFor(n, grain, fn);
+}
+
+}  // namespace
+
+void VoxelGridParams::ValidateOrThrow() const {
+  auto fail = [](const char* key, double value, const char* want) {
+    std::ostringstream os;
+    os << "voxel grid params: " << key << " = " << value << " is invalid (" << want << ")";
+    throw std::invalid_argument(os.str());
+  };
+  if (!(voxel_resolution_m >= 1e-4f && voxel_resolution_m <= 1.0f)) {
+    fail("voxel_resolution_m", voxel_resolution_m, "expected 0.0001..1 m");
+  }
+  if (!(max_depth_m >= 0.0f && std::isfinite(max_depth_m))) {
+    fail("max_depth_m", max_depth_m, "expected >= 0 m, 0 = no limit");
+  }
+}
+
+uint64_t PackVoxelKey(const VoxelCoord& c) { return PackKey(c.x, c.y, c.z); }
+
+int32_t VoxelGrid::FindVoxel(const VoxelCoord& c) const {
+  if (std::abs(c.x) > kCoordLimit || std::abs(c.y) > kCoordLimit || std::abs(c.z) > kCoordLimit) {
+    return -1;
+  }
+  const uint64_t k = PackKey(c.x, c.y, c.z);
+  const auto it = std::lower_bound(key.begin(), key.end(), k);
+  if (it == key.end() || *it != k) return -1;
+  return static_cast<int32_t>(it - key.begin());
+}
+
+Voxelizer::Voxelizer(const VoxelGridParams& params) : params_(params) { params_.ValidateOrThrow(); }
+
+float Voxelizer::VoxelSizeAt(float z_m) const {
+  return params_.use_single_camera_transform ? params_.voxel_resolution_m * z_m
+                                             : params_.voxel_resolution_m;
+}
+
+bool Voxelizer::Quantize(const core::Vec3f& p, VoxelCoord* c) const {
+  LogCache cache;
+  return QuantizePoint(p, params_.use_single_camera_transform, 1.0f / params_.voxel_resolution_m,
+                       params_.max_depth_m, &cache, c);
+}
+
+void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
+  CLUTTERSEG_DEMAND(grid != nullptr);
+  const size_t n = cloud.size();
+  const bool organized = cloud.organized() && static_cast<size_t>(cloud.width) *
+                                                      static_cast<size_t>(cloud.height) == n;
+  const size_t w = organized ? static_cast<size_t>(cloud.width) : 0;
+  const bool with_color = params_.compute_mean_color && cloud.rgba.size() == n && n > 0;
+  grid->width = cloud.width;
+  grid->height = cloud.height;
+
+  // 1. Per band of points (fixed size, so the partition does not depend on the pool): keys,
+  // distinct keys in first-occurrence order and their sums. Neighbouring pixels mostly share
+  // a voxel, so the left and upper pixels are checked before the band's hash map.
+  pixel_key_.resize(n);
+  grid->point_voxel.resize(n);
+  const bool camera = params_.use_single_camera_transform;
+  const float inv_res = 1.0f / params_.voxel_resolution_m;
+  const float max_depth = params_.max_depth_m;
+  const size_t num_bands = core::ThreadPool::NumChunks(n, kBandPoints);
+  if (bands_.size() < num_bands) bands_.resize(num_bands);
+  ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
+    Band& band = bands_[begin / kBandPoints];
+    band.map.Clear(std::max<size_t>(band.size + band.size / 4, 1024));
+    size_t count = 0;
+    const core::Vec3f* xyz = cloud.xyz.data();
+    uint64_t* keys = pixel_key_.data();
+    int32_t* point_voxel = grid->point_voxel.data();
+    VoxelCoord c;
+    LogCache log_cache;
+    for (size_t i = begin; i < end; ++i) {
+      const core::Vec3f& p = xyz[i];
+      if (!QuantizePoint(p, camera, inv_res, max_depth, &log_cache, &c)) {
+        keys[i] = kInvalidKey;
+        point_voxel[i] = -1;
+        continue;
+      }
+      const uint64_t key = PackKey(c.x, c.y, c.z);
+      keys[i] = key;
+      int32_t vox;
+      if (i > begin && keys[i - 1] == key && (!organized || i % w != 0)) {
+        vox = point_voxel[i - 1];
+      } else if (organized && i >= begin + w && keys[i - w] == key) {
+        vox = point_voxel[i - w];
+      } else {
+        bool inserted = false;
+        vox = static_cast<int32_t>(
+            band.map.FindOrInsert(key, static_cast<uint32_t>(count), &inserted));
+        if (inserted) {
+          if (count == band.key.size()) {
+            const size_t capacity = std::max<size_t>(1024, 2 * count);
+            band.key.resize(capacity);
+            band.count.resize(capacity);
+            band.sums.resize(9 * capacity);
+            band.color.resize(capacity);
+          }
+          band.key[count] = key;
+          band.count[count] = 0;
+          std::fill_n(&band.sums[9 * count], 9, 0.0);
+          band.color[count] = core::Vec3f{};
+          ++count;
+        }
+      }
+      point_voxel[i] = vox;
+      const size_t v = static_cast<size_t>(vox);
+      const double x = p.x, y = p.y, z = p.z;
+      double* s = &band.sums[9 * v];
+      s[0] += x;
+      s[1] += y;
+      s[2] += z;
+      s[3] += x * x;
+      s[4] += x * y;
+      s[5] += x * z;
+      s[6] += y * y;
+      s[7] += y * z;
+      s[8] += z * z;
+      ++band.count[v];
+      if (with_color) {
+        const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
+        core::Vec3f& m = band.color[v];
+        m.x += rgb.r;
+        m.y += rgb.g;
+        m.z += rgb.b;
+      }
+    }
+    band.size = count;
+  });
+
+  // 2. Merge the bands in band order (a fixed summation order for every voxel).
+  size_t expected = 0;
+  for (size_t b = 0; b < num_bands; ++b) expected += bands_[b].size;
+  map_.Clear(expected);
+  size_t num_voxels = 0;
+  for (size_t b = 0; b < num_bands; ++b) {
+    Band& band = bands_[b];
+    band.remap.resize(band.size);
+    for (size_t l = 0; l < band.size; ++l) {
+      bool inserted = false;
+      const uint32_t g =
+          map_.FindOrInsert(band.key[l], static_cast<uint32_t>(num_voxels), &inserted);
+      band.remap[l] = g;
+      if (inserted) {
+        if (num_voxels == tmp_key_.size()) {
+          const size_t capacity = std::max<size_t>(4096, 2 * num_voxels);
+          tmp_key_.resize(capacity);
+          tmp_count_.resize(capacity);
+          tmp_sums_.resize(9 * capacity);
+          tmp_color_.resize(capacity);
+        }
+        tmp_key_[g] = band.key[l];
+        tmp_count_[g] = band.count[l];
+        std::copy_n(&band.sums[9 * l], 9, &tmp_sums_[9 * g]);
+        tmp_color_[g] = band.color[l];
+        ++num_voxels;
+      } else {
+        tmp_count_[g] += band.count[l];
+        double* dst = &tmp_sums_[9 * g];
+        const double* src = &band.sums[9 * l];
+        for (int k = 0; k < 9; ++k) dst[k] += src[k];
+        core::Vec3f& m = tmp_color_[g];
+        m.x += band.color[l].x;
+        m.y += band.color[l].y;
+        m.z += band.color[l].z;
+      }
+    }
+  }
+
+  // 3. Sort voxels by key (keys are unique, so the order is total) and move their sums.
+  sort_buf_.resize(num_voxels);
+  for (size_t v = 0; v < num_voxels; ++v) sort_buf_[v] = {tmp_key_[v], static_cast<uint32_t>(v)};
+  std::sort(sort_buf_.begin(), sort_buf_.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  remap_.resize(num_voxels);
+  grid->key.resize(num_voxels);
+  grid->coord.resize(num_voxels);
+  grid->num_points.resize(num_voxels);
+  grid->point_sums.resize(9 * num_voxels);
+  grid->centroid.resize(num_voxels);
+  grid->mean_color.resize(with_color ? num_voxels : 0);
+  ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      const size_t v = sort_buf_[k].second;
+      remap_[v] = static_cast<uint32_t>(k);
+      grid->key[k] = sort_buf_[k].first;
+      grid->coord[k] = UnpackKey(sort_buf_[k].first);
+      const uint32_t count = tmp_count_[v];
+      grid->num_points[k] = count;
+      const double* src = &tmp_sums_[9 * v];
+      std::copy_n(src, 9, &grid->point_sums[9 * k]);
+      const double inv = 1.0 / count;
+      grid->centroid[k] = core::Vec3f{static_cast<float>(src[0] * inv),
+                                      static_cast<float>(src[1] * inv),
+                                      static_cast<float>(src[2] * inv)};
+      if (with_color) {
+        const float finv = static_cast<float>(inv);
+        const core::Vec3f& m = tmp_color_[v];
+        grid->mean_color[k] = core::Vec3f{m.x * finv, m.y * finv, m.z * finv};
+      }
+    }
+  });
+  ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
+    const std::vector<uint32_t>& band_remap = bands_[begin / kBandPoints].remap;
+    for (size_t i = begin; i < end; ++i) {
+      int32_t& vox = grid->point_voxel[i];
+      if (vox >= 0) vox = static_cast<int32_t>(remap_[band_remap[static_cast<size_t>(vox)]]);
+    }
+  });
+  grid->adjacency_offsets.clear();
+  grid->adjacency.clear();
+  grid->normal.clear();
+  grid->curvature.clear();
+}
+
+void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
+  CLUTTERSEG_DEMAND(grid != nullptr);
+  const size_t num_voxels = grid->size();
+  grid->adjacency_offsets.assign(num_voxels + 1, 0);
+  grid->adjacency.clear();
+  if (num_voxels == 0) return;
+
+  // Columns: runs of voxels sharing (x, y), in ascending (x, y) order, each sorted by z.
+  column_key_.clear();
+  column_begin_.clear();
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const uint64_t ck = grid->key[v] >> kFieldBits;
+    if (column_key_.empty() || column_key_.back() != ck) {
+      column_key_.push_back(ck);
+      column_begin_.push_back(static_cast<uint32_t>(v));
+    }
+  }
+  const size_t num_columns = column_key_.size();
+  column_begin_.push_back(static_cast<uint32_t>(num_voxels));
+  nbr_fixed_.resize(26 * num_voxels);
+  nbr_count_.resize(num_voxels);
+
+  // For every column, its 8 neighbour columns are found by pointers that only move forward
+  // (one per row x-1, x, x+1); within a pair of columns a second pointer walks z. Neighbours
+  // come out in ascending index order because index order is (x, y, z) order.
+  constexpr size_t kColumnGrain = 1024;
+  ForChunks(pool, num_columns, kColumnGrain, [&](size_t cb, size_t ce) {
+    const uint64_t* ckeys = column_key_.data();
+    const uint64_t one_x = uint64_t{1} << kFieldBits;
+    size_t row_ptr[3];
+    {
+      const uint64_t first = ckeys[cb];
+      for (int r = 0; r < 3; ++r) {
+        const uint64_t target = first + (r - 1) * one_x - 1;  // (x + r - 1, y - 1)
+        row_ptr[r] = static_cast<size_t>(
+            std::lower_bound(ckeys, ckeys + num_columns, target) - ckeys);
+      }
+    }
+    for (size_t c = cb; c < ce; ++c) {
+      const uint64_t ck = ckeys[c];
+      // Neighbour column ranges in (x, y) order; slot 4 is the column itself.
+      uint32_t nb_begin[9], nb_end[9], lo[9];
+      for (int r = 0; r < 3; ++r) {
+        const uint64_t target = ck + (r - 1) * one_x - 1;
+        size_t p = row_ptr[r];
+        while (p < num_columns && ckeys[p] < target) ++p;
+        row_ptr[r] = p;
+        for (int dy = 0; dy < 3; ++dy) {
+          const int slot = 3 * r + dy;
+          while (p < num_columns && ckeys[p] < target + dy) ++p;
+          if (p < num_columns && ckeys[p] == target + dy) {
+            nb_begin[slot] = column_begin_[p];
+            nb_end[slot] = column_begin_[p + 1];
+          } else {
+            nb_begin[slot] = nb_end[slot] = 0;
+          }
+          lo[slot] = nb_begin[slot];
+        }
+      }
+      const uint32_t self_begin = column_begin_[c];
+      const uint32_t self_end = column_begin_[c + 1];
+      for (uint32_t a = self_begin; a < self_end; ++a) {
+        const int32_t za = grid->coord[a].z;
+        uint32_t* out = &nbr_fixed_[26 * static_cast<size_t>(a)];
+        int count = 0;
+        for (int slot = 0; slot < 9; ++slot) {
+          if (slot == 4) {
+            if (a > self_begin && grid->coord[a - 1].z == za - 1) out[count++] = a - 1;
+            if (a + 1 < self_end && grid->coord[a + 1].z == za + 1) out[count++] = a + 1;
+            continue;
+          }
+          uint32_t q = lo[slot];
+          const uint32_t end = nb_end[slot];
+          while (q < end && grid->coord[q].z < za - 1) ++q;
+          lo[slot] = q;
+          for (; q < end && grid->coord[q].z <= za + 1; ++q) out[count++] = q;
+        }
+        nbr_count_[a] = static_cast<uint8_t>(count);
+      }
+    }
+  });
+  for (size_t v = 0; v < num_voxels; ++v) {
+    grid->adjacency_offsets[v + 1] = grid->adjacency_offsets[v] + nbr_count_[v];
+  }
+  grid->adjacency.resize(grid->adjacency_offsets[num_voxels]);
+  ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
+    for (size_t v = b; v < e; ++v) {
+      std::copy_n(&nbr_fixed_[26 * v], nbr_count_[v],
+                  grid->adjacency.begin() + grid->adjacency_offsets[v]);
+    }
+  });
+}
+
+void Voxelizer::ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const {
+  CLUTTERSEG_DEMAND(grid != nullptr);
+  const size_t num_voxels = grid->size();
+  CLUTTERSEG_DEMAND(grid->adjacency_offsets.size() == num_voxels + 1);
+  grid->normal.resize(num_voxels);
+  grid->curvature.resize(num_voxels);
+  ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
+    for (size_t v = b; v < e; ++v) {
+      const core::Vec3f& c0 = grid->centroid[v];
+      const uint32_t begin = grid->adjacency_offsets[v];
+      const uint32_t end = grid->adjacency_offsets[v + 1];
+      if (end - begin < 2) {
+        const float len = std::sqrt(c0.x * c0.x + c0.y * c0.y + c0.z * c0.z);
+        grid->normal[v] = len > 0.f ? core::Vec3f{-c0.x / len, -c0.y / len, -c0.z / len}
+                                    : core::Vec3f{0.f, 0.f, -1.f};
+        grid->curvature[v] = 1.0f / 3.0f;
+        continue;
+      }
+      // Weighted moments relative to the voxel's own centroid, so that single precision is
+      // accurate (offsets are a few voxels).
+      float w_sum = static_cast<float>(grid->num_points[v]);
+      float m[3] = {0.f, 0.f, 0.f};
+      float s[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+      for (uint32_t k = begin; k < end; ++k) {
+        const uint32_t j = grid->adjacency[k];
+        const core::Vec3f& c = grid->centroid[j];
+        const float w = static_cast<float>(grid->num_points[j]);
+        const float dx = c.x - c0.x, dy = c.y - c0.y, dz = c.z - c0.z;
+        const float wx = w * dx, wy = w * dy, wz = w * dz;
+        w_sum += w;
+        m[0] += wx;
+        m[1] += wy;
+        m[2] += wz;
+        s[0] += wx * dx;
+        s[1] += wx * dy;
+        s[2] += wx * dz;
+        s[3] += wy * dy;
+        s[4] += wy * dz;
+        s[5] += wz * dz;
+      }
+      const float inv = 1.0f / w_sum;
+      const float mx = m[0] * inv, my = m[1] * inv, mz = m[2] * inv;
+      Eigen::Matrix3f cov;
+      cov(0, 0) = s[0] * inv - mx * mx;
+      cov(0, 1) = cov(1, 0) = s[1] * inv - mx * my;
+      cov(0, 2) = cov(2, 0) = s[2] * inv - mx * mz;
+      cov(1, 1) = s[3] * inv - my * my;
+      cov(1, 2) = cov(2, 1) = s[4] * inv - my * mz;
+      cov(2, 2) = s[5] * inv - mz * mz;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver;
+      solver.computeDirect(cov);
+      const Eigen::Vector3f l = solver.eigenvalues().cwiseMax(0.0f);
+      Eigen::Vector3f nrm = solver.eigenvectors().col(0);
+      const float len = nrm.norm();
+      if (!(len > 0.0f) || !std::isfinite(len)) {
+        nrm = Eigen::Vector3f(0.f, 0.f, -1.f);
+      } else {
+        nrm /= len;
+      }
+      if (nrm.x() * c0.x + nrm.y() * c0.y + nrm.z() * c0.z > 0.0f) nrm = -nrm;
+      grid->normal[v] = core::Vec3f{nrm.x(), nrm.y(), nrm.z()};
+      const float total = l.sum();
+      grid->curvature[v] = total > 0.0f ? l(0) / total : 0.0f;
+    }
+  });
+}
+
+void Voxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
+  Voxelize(cloud, pool, grid);
+  ComputeAdjacency(pool, grid);
+  ComputeNormals(pool, grid);
+}
+
+}  // namespace clutterseg::geometry

@@ -1,0 +1,145 @@
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "core/point_cloud.h"
+#include "core/thread_pool.h"
+#include "core/types.h"
+#include "geometry/internal/key_index_map.h"
+
+namespace clutterseg::geometry {
+
+/// Parameters of the voxel grid (the leaf level of the VCCS octree).
+struct VoxelGridParams {
+  /// Voxel edge, metres. With the single-camera transform this is the edge at 1 m depth.
+  float voxel_resolution_m{0.0075f};
+  /// Quantise (x/z, y/z, ln z) instead of (x, y, z): voxels grow linearly with depth like the
+  /// sensor's point spacing and noise, and each voxel column is a fixed block of pixels.
+  bool use_single_camera_transform{true};
+  /// Points farther than this from the camera (z, metres) are ignored; 0 = no limit.
+  float max_depth_m{0.0f};
+  /// Average the points' colours per voxel (when the cloud has colour).
+  bool compute_mean_color{true};
+
+  /// @throws std::invalid_argument naming the key and value.
+  void ValidateOrThrow() const;
+};
+
+/// Integer voxel coordinates in the quantised space.
+struct VoxelCoord {
+  int32_t x{0};
+  int32_t y{0};
+  int32_t z{0};
+};
+
+/// The occupied voxels of one organized (or unorganized) cloud, sorted by their packed key
+/// (x, then y, then z: lexicographic order of the integer coordinates), so that each column
+/// of voxels sharing (x, y) is a contiguous run sorted by z. All per-voxel arrays have size()
+/// entries. Positions are metres in the camera frame whatever space was quantised.
+struct VoxelGrid {
+  int width{0};   ///< of the source cloud
+  int height{0};  ///< of the source cloud
+  /// Per source point: index of its voxel, or -1 for an invalid / ignored point.
+  std::vector<int32_t> point_voxel;
+
+  std::vector<uint64_t> key;          ///< PackVoxelKey(coord), strictly ascending
+  std::vector<VoxelCoord> coord;      ///< integer coordinates in the quantised space
+  std::vector<uint32_t> num_points;   ///< points in the voxel (>= 1)
+  std::vector<core::Vec3f> centroid;  ///< mean of the voxel's points, metres
+  /// Mean colour (r, g, b in 0..255) of the voxel's points; empty when the cloud has none or
+  /// VoxelGridParams::compute_mean_color is false.
+  std::vector<core::Vec3f> mean_color;
+  /// Sums of the voxel's points (x, y, z) and of their products (xx, xy, xz, yy, yz, zz),
+  /// metres and square metres, for exact covariances of unions of voxels.
+  std::vector<double> point_sums;  ///< 9 entries per voxel
+
+  /// 26-neighbourhood in the quantised space as CSR: the neighbours of voxel i are
+  /// adjacency[adjacency_offsets[i] .. adjacency_offsets[i + 1]), sorted ascending. Symmetric,
+  /// no self loops. Filled by Voxelizer::ComputeAdjacency.
+  std::vector<uint32_t> adjacency_offsets;
+  std::vector<uint32_t> adjacency;
+
+  /// Unit normal from the point-count weighted covariance of the centroids of the voxel and
+  /// its neighbours, oriented towards the camera (normal . centroid <= 0). Filled by
+  /// Voxelizer::ComputeNormals.
+  std::vector<core::Vec3f> normal;
+  /// Surface variation l3 / (l1 + l2 + l3) of that covariance; 1/3 (maximal) when fewer than
+  /// three voxels take part, whose normal is then the direction to the camera.
+  std::vector<float> curvature;
+
+  size_t size() const { return centroid.size(); }
+  /// Index of the voxel at `c`, or -1 when it is empty. O(log N).
+  int32_t FindVoxel(const VoxelCoord& c) const;
+
+};
+
+/// Packs in-range voxel coordinates (each in (-2^20 + 2, 2^20 - 2)) into a 63-bit key whose
+/// order is the lexicographic order of (x, y, z).
+uint64_t PackVoxelKey(const VoxelCoord& c);
+
+/// Builds a VoxelGrid from a cloud. Buffers (of the grid and internal) are reused across calls
+/// and grow only when a frame needs more than any before it.
+///
+/// Thread-safety: one Voxelizer must not be used by two threads at once; distinct instances
+/// are independent. Work inside a call is split over `pool` (nullable) in chunks whose results
+/// do not depend on the pool size: the output is bit-identical for any number of threads.
+class Voxelizer {
+ public:
+  /// @throws std::invalid_argument when `params` is invalid.
+  explicit Voxelizer(const VoxelGridParams& params);
+
+  const VoxelGridParams& params() const { return params_; }
+
+  /// Quantises the valid points of `cloud` (organized or not; colour used when present) and
+  /// fills the voxel fields of `grid` (not adjacency or normals). O(points + V log V), one
+  /// hash lookup per point whose left and upper neighbours fall in other voxels.
+  void Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid);
+  /// Fills the 26-neighbourhood CSR of a voxelized grid by a linear sweep over the voxel
+  /// columns (no lookups). O(V).
+  void ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid);
+  /// Fills normals and curvature; needs the adjacency. O(V * degree).
+  void ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const;
+  /// The three steps above.
+  void Compute(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid);
+
+  /// Quantised coordinates of a valid point (metres, camera frame); false when the point is
+  /// out of range (non-positive depth with the camera transform, beyond max_depth_m, or
+  /// coordinates beyond the key range).
+  bool Quantize(const core::Vec3f& p, VoxelCoord* c) const;
+  /// Edge length (metres) of a voxel at depth z: the resolution, times z with the camera
+  /// transform.
+  float VoxelSizeAt(float z_m) const;
+
+ private:
+  // Voxels of one band of points, in first-occurrence order, with their sums.
+  struct Band {
+    internal::KeyIndexMap map;
+    std::vector<uint64_t> key;
+    std::vector<uint32_t> count;
+    std::vector<double> sums;  // 9 per voxel
+    std::vector<core::Vec3f> color;
+    std::vector<uint32_t> remap;  // band voxel -> merged voxel
+    size_t size{0};
+  };
+
+  const VoxelGridParams params_;
+  std::vector<Band> bands_;
+  internal::KeyIndexMap map_;
+  std::vector<uint64_t> pixel_key_;
+  // Merged voxels in first-occurrence order during Voxelize, with their sums.
+  std::vector<uint64_t> tmp_key_;
+  std::vector<uint32_t> tmp_count_;
+  std::vector<double> tmp_sums_;
+  std::vector<core::Vec3f> tmp_color_;
+  std::vector<std::pair<uint64_t, uint32_t>> sort_buf_;
+  std::vector<uint32_t> remap_;
+  // Columns of voxels sharing (x, y): packed (x, y) and first voxel; one extra end entry.
+  std::vector<uint64_t> column_key_;
+  std::vector<uint32_t> column_begin_;
+  std::vector<uint32_t> nbr_fixed_;  // 26 slots per voxel
+  std::vector<uint8_t> nbr_count_;
+};
+
+}  // namespace clutterseg::geometry

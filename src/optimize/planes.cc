@@ -1,0 +1,216 @@
+#include "optimize/planes.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+#include <Eigen/Dense>
+
+namespace clutterseg::optimize {
+namespace {
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+float Dot(const core::Vec3f& a, const core::Vec3f& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+
+}  // namespace
+
+namespace internal {
+
+bool FitPlane(const graph::PatchFeatures& f, const std::vector<uint32_t>& patches,
+              core::Vec3f* normal, float* d, uint32_t* num_points) {
+  double total = 0.0;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (uint32_t i : patches) {
+    const double n = f.num_points[i];
+    total += n;
+    mean += n * Eigen::Vector3d(f.centroid[i].x, f.centroid[i].y, f.centroid[i].z);
+  }
+  *num_points = static_cast<uint32_t>(total);
+  if (total < 3.0) return false;
+  mean /= total;
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (uint32_t i : patches) {
+    const double n = f.num_points[i];
+    if (n <= 0.0) continue;
+    const auto& c = f.covariance[i];
+    Eigen::Matrix3d cov;
+    cov << c[0], c[1], c[2], c[1], c[3], c[4], c[2], c[4], c[5];
+    const Eigen::Vector3d dc =
+        Eigen::Vector3d(f.centroid[i].x, f.centroid[i].y, f.centroid[i].z) - mean;
+    scatter += n * (cov + dc * dc.transpose());
+  }
+  scatter /= total;
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+  solver.computeDirect(scatter);
+  Eigen::Vector3d nrm = solver.eigenvectors().col(0);
+  if (!nrm.allFinite() || !(nrm.norm() > 0.0)) return false;
+  nrm.normalize();
+  if (nrm.dot(mean) > 0.0) nrm = -nrm;
+  *normal = core::Vec3f{static_cast<float>(nrm.x()), static_cast<float>(nrm.y()),
+                        static_cast<float>(nrm.z())};
+  *d = static_cast<float>(-nrm.dot(mean));
+  return true;
+}
+
+}  // namespace internal
+
+PlaneLabeler::PlaneLabeler(const PlaneParams& params) : params_(params) {
+  params_.ValidateOrThrow();
+}
+
+void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
+                                  std::vector<uint32_t>* inliers) const {
+  inliers->clear();
+  const float rho = params_.inlier_distance_m;
+  const float min_cos = static_cast<float>(std::cos(params_.inlier_angle_deg * kDegToRad));
+  const auto min_points = static_cast<uint32_t>(params_.min_patch_points);
+  const size_t n = f.size();
+  for (size_t i = 0; i < n; ++i) {
+    if (f.num_points[i] < min_points) continue;
+    if (std::fabs(Dot(normal, f.centroid[i]) + d) > rho) continue;
+    if (Dot(normal, f.normal[i]) < min_cos) continue;
+    inliers->push_back(static_cast<uint32_t>(i));
+  }
+}
+
+void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneModel>* planes) {
+  planes->clear();
+  const size_t n = f.size();
+  const auto min_points = static_cast<uint32_t>(params_.min_patch_points);
+  seeds_.clear();
+  for (size_t i = 0; i < n; ++i) {
+    if (f.type[i] == graph::PatchType::kPlanar && f.num_points[i] >= min_points &&
+        f.curvature[i] <= params_.max_seed_curvature) {
+      seeds_.push_back(static_cast<uint32_t>(i));
+    }
+  }
+  std::stable_sort(seeds_.begin(), seeds_.end(),
+                   [&](uint32_t a, uint32_t b) { return f.curvature[a] < f.curvature[b]; });
+  covered_.assign(n, 0);
+  const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
+  const auto min_inliers = static_cast<size_t>(params_.min_inlier_patches);
+  int trials = 0;
+  for (uint32_t seed : seeds_) {
+    if (static_cast<int>(planes->size()) >= params_.max_planes ||
+        trials >= params_.max_candidate_trials) {
+      break;
+    }
+    if (covered_[seed]) continue;
+    ++trials;
+    core::Vec3f normal = f.normal[seed];
+    float d = -Dot(normal, f.centroid[seed]);
+    CollectInliers(f, normal, d, &inliers_);
+    if (inliers_.size() < min_inliers) continue;
+    uint32_t points = 0;
+    bool ok = true;
+    for (int it = 0; it <= params_.refit_iterations && ok; ++it) {
+      ok = internal::FitPlane(f, inliers_, &normal, &d, &points);
+      if (ok && it < params_.refit_iterations) CollectInliers(f, normal, d, &inliers_);
+    }
+    if (!ok || inliers_.size() < min_inliers) continue;
+    bool duplicate = false;
+    for (const PlaneModel& q : *planes) {
+      if (Dot(q.normal, normal) < dup_cos) continue;
+      // Distance of this plane's inlier centroid (the point of the plane closest to it) to q.
+      double sx = 0, sy = 0, sz = 0, sn = 0;
+      for (uint32_t i : inliers_) {
+        sx += double{f.centroid[i].x} * f.num_points[i];
+        sy += double{f.centroid[i].y} * f.num_points[i];
+        sz += double{f.centroid[i].z} * f.num_points[i];
+        sn += f.num_points[i];
+      }
+      const core::Vec3f m{static_cast<float>(sx / sn), static_cast<float>(sy / sn),
+                          static_cast<float>(sz / sn)};
+      if (std::fabs(Dot(q.normal, m) + q.d) < params_.duplicate_distance_m) {
+        duplicate = true;
+        break;
+      }
+    }
+    for (uint32_t i : inliers_) covered_[i] = 1;
+    if (duplicate) continue;
+    planes->push_back(PlaneModel{normal, d, points, static_cast<uint32_t>(inliers_.size())});
+  }
+}
+
+void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
+                           PlaneLabeling* out) {
+  const size_t n = sv.size();
+  if (f.size() != n || f.num_points.size() != n || f.a2d.size() != n) {
+    throw std::runtime_error("PlaneLabeler: features have " + std::to_string(f.size()) +
+                             " entries for " + std::to_string(n) + " supervoxels");
+  }
+  if (sv.adjacency_offsets.size() != n + 1 ||
+      (n > 0 && sv.adjacency_offsets.back() != sv.adjacency.size())) {
+    throw std::runtime_error("PlaneLabeler: adjacency_offsets has " +
+                             std::to_string(sv.adjacency_offsets.size()) + " entries for " +
+                             std::to_string(n) + " supervoxels");
+  }
+  FindPlanes(f, &hypotheses_);
+  out->num_hypotheses = static_cast<int>(hypotheses_.size());
+  out->planes.clear();
+  out->patch_plane.assign(n, -1);
+  out->energy = 0.0;
+  out->expansion_cycles = 0;
+  if (n == 0 || hypotheses_.empty()) return;
+
+  // Unary costs in units of rho; label p < P is plane p, label P is l0.
+  const size_t num_planes = hypotheses_.size();
+  const size_t num_labels = num_planes + 1;
+  const float rho = params_.inlier_distance_m;
+  const float min_cos = static_cast<float>(std::cos(params_.inlier_angle_deg * kDegToRad));
+  const float kf = params_.feature_weight;
+  unary_.resize(n * num_labels);
+  for (size_t i = 0; i < n; ++i) {
+    float* u = unary_.data() + i * num_labels;
+    if (f.num_points[i] == 0) {
+      std::fill(u, u + num_labels, 0.f);  // no evidence: the neighbours decide
+      continue;
+    }
+    const float a2d = f.a2d[i];
+    for (size_t p = 0; p < num_planes; ++p) {
+      const PlaneModel& q = hypotheses_[p];
+      float cost = std::fabs(Dot(q.normal, f.centroid[i]) + q.d) / rho;
+      if (Dot(q.normal, f.normal[i]) < min_cos) cost += params_.normal_mismatch_cost;
+      u[p] = cost + kf * (1.f - a2d);
+    }
+    u[num_planes] = params_.no_plane_cost_factor + kf * a2d;
+  }
+
+  PottsEnergy energy;
+  energy.num_nodes = static_cast<int>(n);
+  energy.num_labels = static_cast<int>(num_labels);
+  energy.unary = unary_;
+  energy.offsets = sv.adjacency_offsets;
+  energy.neighbors = sv.adjacency;
+  energy.uniform_weight = params_.smoothness_weight;
+  labels_.clear();
+  out->energy = expansion_.Minimize(energy, params_.max_expansion_cycles, &labels_);
+  out->expansion_cycles = expansion_.last_cycles();
+
+  // Keep planes that received supervoxels, renumbered in acceptance order.
+  remap_.assign(num_planes, -1);
+  for (size_t p = 0; p < num_planes; ++p) {
+    hypotheses_[p].num_points = 0;
+    hypotheses_[p].num_patches = 0;
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const auto l = static_cast<size_t>(labels_[i]);
+    if (l == num_planes) continue;
+    hypotheses_[l].num_points += f.num_points[i];
+    ++hypotheses_[l].num_patches;
+  }
+  for (size_t p = 0; p < num_planes; ++p) {
+    if (hypotheses_[p].num_patches == 0) continue;
+    remap_[p] = static_cast<int32_t>(out->planes.size());
+    out->planes.push_back(hypotheses_[p]);
+  }
+  for (size_t i = 0; i < n; ++i) {
+    const auto l = static_cast<size_t>(labels_[i]);
+    out->patch_plane[i] = l == num_planes ? -1 : remap_[l];
+  }
+}
+
+}  // namespace clutterseg::optimize

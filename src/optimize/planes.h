@@ -1,0 +1,83 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "graph/patch_features.h"
+#include "optimize/alpha_expansion.h"
+#include "optimize/plane_params.h"
+#include "supervoxel/supervoxels.h"
+
+namespace clutterseg::optimize {
+
+/// A plane n . p + d = 0 in the camera frame (metres); `normal` is unit and points towards
+/// the camera, so d > 0 for a plane that does not pass behind the camera centre.
+struct PlaneModel {
+  core::Vec3f normal{0.f, 0.f, -1.f};
+  float d{0.f};
+  uint32_t num_points{0};   ///< member points of the supervoxels assigned to the plane
+  uint32_t num_patches{0};  ///< supervoxels assigned to the plane
+};
+
+/// Output of PlaneLabeler::Compute.
+struct PlaneLabeling {
+  /// Planes that received at least one supervoxel, in order of acceptance.
+  std::vector<PlaneModel> planes;
+  /// Per supervoxel: index into `planes`, or -1 for l0 ("on no plane").
+  std::vector<int32_t> patch_plane;
+  /// Hypotheses accepted before labelling (some may end with no supervoxel).
+  int num_hypotheses{0};
+  double energy{0.0};  ///< final energy, in units of rho (see PlaneParams)
+  int expansion_cycles{0};
+};
+
+/// Plane hypotheses from planar low-curvature patches, total-least-squares refit on the
+/// inlier patches' points, and the assignment of every supervoxel to a plane or to l0 by
+/// alpha-expansion on the energy of docs/method.md section 5 (units in PlaneParams).
+///
+/// Deterministic. Thread-safety: Compute is not reentrant (reuses buffers). Complexity:
+/// O(max_candidate_trials * N) for the hypotheses plus the expansion moves.
+class PlaneLabeler {
+ public:
+  /// @throws std::invalid_argument when `params` fail validation.
+  explicit PlaneLabeler(const PlaneParams& params);
+
+  /// Finds planes from `features` and labels every supervoxel of `supervoxels` (adjacency
+  /// for the smoothness term). `features` must have one entry per supervoxel.
+  /// @throws std::runtime_error when the sizes disagree.
+  void Compute(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
+               PlaneLabeling* out);
+
+  /// Plane hypotheses only: greedily accepted and refitted planes, most planar seed first;
+  /// num_points / num_patches count the inliers of the final refit.
+  void FindPlanes(const graph::PatchFeatures& features, std::vector<PlaneModel>* planes);
+
+  const PlaneParams& params() const { return params_; }
+
+ private:
+  // Collects patches within rho of the plane and with a compatible normal.
+  void CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
+                      std::vector<uint32_t>* inliers) const;
+
+  const PlaneParams params_;
+  AlphaExpansion expansion_;
+  std::vector<PlaneModel> hypotheses_;
+  std::vector<uint32_t> seeds_;
+  std::vector<uint32_t> inliers_;
+  std::vector<uint8_t> covered_;
+  std::vector<float> unary_;
+  std::vector<int32_t> labels_;
+  std::vector<int32_t> remap_;
+};
+
+namespace internal {
+
+/// Total-least-squares plane through the union of the member points of `patches`, computed
+/// exactly from their counts, centroids and covariances. Returns false when the patches hold
+/// fewer than 3 points. The normal is oriented towards the camera.
+bool FitPlane(const graph::PatchFeatures& f, const std::vector<uint32_t>& patches,
+              core::Vec3f* normal, float* d, uint32_t* num_points);
+
+}  // namespace internal
+
+}  // namespace clutterseg::optimize

@@ -1,0 +1,146 @@
+#include "pipeline/objects.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+namespace clutterseg::pipeline {
+namespace {
+
+struct Accumulator {
+  uint64_t n{0};
+  Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
+  Eigen::Matrix3d sum_sq{Eigen::Matrix3d::Zero()};
+  Eigen::Vector3f min{Eigen::Vector3f::Constant(std::numeric_limits<float>::max())};
+  Eigen::Vector3f max{Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest())};
+  uint64_t r{0}, g{0}, b{0};
+  int umin{std::numeric_limits<int>::max()}, vmin{std::numeric_limits<int>::max()};
+  int umax{-1}, vmax{-1};
+};
+
+core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v.z()}; }
+
+}  // namespace
+
+void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& labels,
+                    uint32_t num_objects, const std::vector<Plane>& planes,
+                    std::vector<Object>* objects) {
+  objects->resize(num_objects);
+  if (num_objects == 0) return;
+  std::vector<Accumulator> acc(num_objects);
+  const bool color = cloud.has_color();
+  const int w = labels.width;
+  for (size_t i = 0; i < labels.data.size(); ++i) {
+    const uint32_t l = labels.data[i];
+    if (l == 0 || l > num_objects) continue;
+    const core::Vec3f& p = cloud.xyz[i];
+    if (!core::IsValid(p)) continue;
+    Accumulator& a = acc[l - 1];
+    const Eigen::Vector3d q(p.x, p.y, p.z);
+    a.n++;
+    a.sum += q;
+    a.sum_sq.noalias() += q * q.transpose();
+    const Eigen::Vector3f pf(p.x, p.y, p.z);
+    a.min = a.min.cwiseMin(pf);
+    a.max = a.max.cwiseMax(pf);
+    if (color) {
+      const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
+      a.r += c.r;
+      a.g += c.g;
+      a.b += c.b;
+    }
+    const int u = static_cast<int>(i % static_cast<size_t>(w));
+    const int v = static_cast<int>(i / static_cast<size_t>(w));
+    a.umin = std::min(a.umin, u);
+    a.umax = std::max(a.umax, u);
+    a.vmin = std::min(a.vmin, v);
+    a.vmax = std::max(a.vmax, v);
+  }
+
+  // Oriented boxes need the extents along the principal axes: a second pass.
+  std::vector<Eigen::Matrix3f> axes(num_objects, Eigen::Matrix3f::Identity());
+  std::vector<Eigen::Vector3f> centroid(num_objects, Eigen::Vector3f::Zero());
+  for (uint32_t k = 0; k < num_objects; ++k) {
+    const Accumulator& a = acc[k];
+    if (a.n == 0) continue;
+    const Eigen::Vector3d c = a.sum / static_cast<double>(a.n);
+    Eigen::Matrix3d cov = a.sum_sq / static_cast<double>(a.n) - c * c.transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
+    es.computeDirect(cov);
+    Eigen::Matrix3f ax;
+    // Columns: largest variance first.
+    ax.col(0) = es.eigenvectors().col(2).cast<float>().normalized();
+    ax.col(1) = es.eigenvectors().col(1).cast<float>().normalized();
+    // Deterministic signs: first axis points to +x (or +y), second towards the camera side.
+    if (ax(0, 0) < 0.f || (ax(0, 0) == 0.f && ax(1, 0) < 0.f)) ax.col(0) = -ax.col(0);
+    if (ax(1, 1) < 0.f || (ax(1, 1) == 0.f && ax(2, 1) < 0.f)) ax.col(1) = -ax.col(1);
+    ax.col(2) = ax.col(0).cross(ax.col(1)).normalized();
+    axes[k] = ax;
+    centroid[k] = c.cast<float>();
+  }
+  std::vector<Eigen::Vector3f> lo(num_objects, Eigen::Vector3f::Constant(std::numeric_limits<float>::max()));
+  std::vector<Eigen::Vector3f> hi(num_objects,
+                                  Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest()));
+  // Signed distance to each support plane of each object's lowest point.
+  for (size_t i = 0; i < labels.data.size(); ++i) {
+    const uint32_t l = labels.data[i];
+    if (l == 0 || l > num_objects) continue;
+    const core::Vec3f& p = cloud.xyz[i];
+    if (!core::IsValid(p)) continue;
+    const Eigen::Vector3f d = Eigen::Vector3f(p.x, p.y, p.z) - centroid[l - 1];
+    const Eigen::Vector3f local = axes[l - 1].transpose() * d;
+    lo[l - 1] = lo[l - 1].cwiseMin(local);
+    hi[l - 1] = hi[l - 1].cwiseMax(local);
+  }
+
+  for (uint32_t k = 0; k < num_objects; ++k) {
+    const Accumulator& a = acc[k];
+    Object& o = (*objects)[k];
+    o = Object{};
+    o.id = k + 1;
+    o.num_points = static_cast<uint32_t>(a.n);
+    if (a.n == 0) continue;
+    o.centroid = ToVec(centroid[k]);
+    o.aabb_min = ToVec(a.min);
+    o.aabb_max = ToVec(a.max);
+    const Eigen::Vector3f mid_local = 0.5f * (lo[k] + hi[k]);
+    o.obb_center = ToVec(centroid[k] + axes[k] * mid_local);
+    for (int j = 0; j < 3; ++j) o.obb_axes[j] = ToVec(axes[k].col(j));
+    o.obb_extents = ToVec(hi[k] - lo[k]);
+    o.mean_color = core::Rgb8{static_cast<uint8_t>(a.r / a.n), static_cast<uint8_t>(a.g / a.n),
+                              static_cast<uint8_t>(a.b / a.n)};
+    o.pixel_min_u = a.umin;
+    o.pixel_min_v = a.vmin;
+    o.pixel_max_u = a.umax;
+    o.pixel_max_v = a.vmax;
+    // Support plane: a support plane the object stands on has the object on its camera side
+    // (positive signed distance, normals point to the camera) and nearly touches it. Pick
+    // the one nearest to the object's lowest corner.
+    float best = std::numeric_limits<float>::max();
+    for (const Plane& pl : planes) {
+      if (!pl.is_support) continue;
+      const Eigen::Vector3f n(pl.normal.x, pl.normal.y, pl.normal.z);
+      // Minimum signed distance over the AABB corners approximates the lowest point.
+      float dmin = std::numeric_limits<float>::max();
+      for (int c = 0; c < 8; ++c) {
+        const Eigen::Vector3f corner((c & 1) ? a.max.x() : a.min.x(), (c & 2) ? a.max.y() : a.min.y(),
+                                     (c & 4) ? a.max.z() : a.min.z());
+        dmin = std::min(dmin, n.dot(corner) + pl.d);
+      }
+      const float dc = n.dot(centroid[k]) + pl.d;
+      if (dc <= 0.f) continue;  // the object is behind the plane
+      if (std::abs(dmin) < best && std::abs(dmin) < 0.1f) {
+        best = std::abs(dmin);
+        o.support_plane_id = static_cast<int32_t>(pl.id);
+      }
+    }
+    // Confidence: small objects and objects with few points relative to their box are less
+    // certain; a simple monotone score in 0..1.
+    o.confidence = std::clamp(static_cast<float>(a.n) / 2000.f, 0.2f, 1.f);
+  }
+}
+
+}  // namespace clutterseg::pipeline

@@ -1,0 +1,128 @@
+#include "pipeline/refine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace clutterseg::pipeline {
+
+int32_t Refiner::Find(int32_t x) {
+  while (parent_[x] != x) {
+    parent_[x] = parent_[parent_[x]];
+    x = parent_[x];
+  }
+  return x;
+}
+
+void Refiner::Union(int32_t a, int32_t b) {
+  a = Find(a);
+  b = Find(b);
+  if (a == b) return;
+  if (a < b) std::swap(a, b);
+  parent_[a] = b;  // the smaller id is the root: deterministic
+}
+
+uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
+                      const core::PointCloud& cloud, const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+                      const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
+                      core::LabelImage* labels, std::vector<Plane>* out_planes) {
+  const size_t n = sv.size();
+  const size_t num_planes = planes.planes.size();
+
+  // Support planes are the large ones (table, floor, wall), measured by the metric area of
+  // the surface assigned to them: a pixel at depth z seen at incidence angle t covers
+  // z^2 / (fx fy cos t). Object faces are small even when they fill much of the image.
+  plane_area_.assign(num_planes, 0.0);
+  const double pixel_area = 1.0 / (intrinsics.fx * intrinsics.fy);
+  for (size_t i = 0; i < n; ++i) {
+    const int32_t p = planes.patch_plane[i];
+    if (p < 0) continue;
+    const core::Vec3f& c = features.centroid[i];
+    const core::Vec3f& nrm = planes.planes[p].normal;
+    const double r = std::sqrt(double(c.x) * c.x + double(c.y) * c.y + double(c.z) * c.z);
+    if (!(r > 0.0)) continue;
+    const double cos_t =
+        std::max(0.2, std::abs((c.x * nrm.x + c.y * nrm.y + c.z * nrm.z) / r));
+    plane_area_[p] += sv.num_points[i] * double(c.z) * c.z * pixel_area / cos_t;
+  }
+  support_.assign(num_planes, 0);
+  out_planes->resize(num_planes);
+  for (size_t p = 0; p < num_planes; ++p) {
+    const optimize::PlaneModel& pm = planes.planes[p];
+    support_[p] = plane_area_[p] >= params.support_min_area_m2 ? 1 : 0;
+    Plane& out = (*out_planes)[p];
+    out.id = static_cast<uint32_t>(p);
+    out.normal = pm.normal;
+    out.d = pm.d;
+    out.num_points = pm.num_points;
+    out.area_m2 = static_cast<float>(plane_area_[p]);
+    out.is_support = support_[p] != 0;
+  }
+
+  background_.assign(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const int32_t p = planes.patch_plane[i];
+    if (p >= 0 && support_[p]) background_[i] = 1;
+  }
+
+  // Group foreground supervoxels: same initial segment and adjacent, or pieces of the same
+  // non-support plane that touch.
+  parent_.resize(n);
+  std::iota(parent_.begin(), parent_.end(), 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (background_[i]) continue;
+    for (uint32_t s = sv.adjacency_offsets[i]; s < sv.adjacency_offsets[i + 1]; ++s) {
+      const uint32_t j = sv.adjacency[s];
+      if (j <= i || background_[j]) continue;
+      const bool same_segment = link.segment[i] == link.segment[j];
+      const int32_t pi = planes.patch_plane[i];
+      const bool same_plane = pi >= 0 && pi == planes.patch_plane[j] &&
+                              features.type[i] == graph::PatchType::kPlanar &&
+                              features.type[j] == graph::PatchType::kPlanar;
+      if (same_segment || same_plane) Union(static_cast<int32_t>(i), static_cast<int32_t>(j));
+    }
+  }
+
+  group_points_.assign(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (!background_[i]) group_points_[Find(static_cast<int32_t>(i))] += sv.num_points[i];
+  }
+
+  // Label groups in row-major order of their first pixel; drop small ones.
+  group_label_.assign(n, -1);
+  uint32_t next = 0;
+  const size_t num_pixels = sv.pixel_label.size();
+  for (size_t px = 0; px < num_pixels; ++px) {
+    const int32_t s = sv.pixel_label[px];
+    if (s < 0 || background_[s]) {
+      labels->data[px] = 0;
+      continue;
+    }
+    const int32_t g = Find(s);
+    if (group_label_[g] < 0) {
+      group_label_[g] = group_points_[g] >= static_cast<uint64_t>(params.min_object_points)
+                            ? static_cast<int32_t>(++next)
+                            : 0;
+    }
+    labels->data[px] = static_cast<uint32_t>(group_label_[g]);
+  }
+
+  // Supervoxels straddle the contact between an object and its support: points of an object
+  // that lie on a support plane go back to the background.
+  const float snap = params.support_snap_distance_m;
+  if (snap > 0.f) {
+    for (size_t p = 0; p < num_planes; ++p) {
+      if (!support_[p]) continue;
+      const core::Vec3f nrm = planes.planes[p].normal;
+      const float d = planes.planes[p].d;
+      for (size_t px = 0; px < num_pixels; ++px) {
+        if (labels->data[px] == 0) continue;
+        const core::Vec3f& q = cloud.xyz[px];
+        if (std::abs(nrm.x * q.x + nrm.y * q.y + nrm.z * q.z + d) < snap) labels->data[px] = 0;
+      }
+    }
+  }
+  return next;
+}
+
+}  // namespace clutterseg::pipeline

@@ -1,0 +1,45 @@
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/camera_intrinsics.h"
+#include "core/point_cloud.h"
+#include "graph/linkage.h"
+#include "graph/patch_features.h"
+#include "optimize/planes.h"
+#include "pipeline/segmentation_result.h"
+#include "pipeline/segmenter_params.h"
+#include "supervoxel/supervoxels.h"
+
+namespace clutterseg::pipeline {
+
+/// Refinement (docs/method.md section 6): support planes become background, the remaining
+/// supervoxels are grouped into objects by the initial segments (restricted to foreground and
+/// re-split where removing the background disconnected them), pieces of one non-support plane
+/// that touch are merged, and groups smaller than min_object_points are dropped. Object ids
+/// are assigned in row-major order of each object's first pixel, so output is deterministic.
+///
+/// Thread-safety: Run is not reentrant (reuses work buffers).
+class Refiner {
+ public:
+  /// Writes the label image (`labels` must already be sized to the frame) and the plane
+  /// list; returns the number of objects (labels 1..n).
+  uint32_t Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
+               const core::PointCloud& cloud, const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+               const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
+               core::LabelImage* labels, std::vector<Plane>* out_planes);
+
+ private:
+  int32_t Find(int32_t x);
+  void Union(int32_t a, int32_t b);
+
+  std::vector<int32_t> parent_;
+  std::vector<uint8_t> background_;
+  std::vector<uint8_t> support_;
+  std::vector<double> plane_area_;
+  std::vector<uint64_t> group_points_;
+  std::vector<int32_t> group_label_;
+};
+
+}  // namespace clutterseg::pipeline

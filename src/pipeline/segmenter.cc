@@ -1,0 +1,131 @@
+#include "pipeline/segmenter.h"
+
+#include <algorithm>
+#include <chrono>
+#include <numeric>
+
+#include "graph/linkage.h"
+#include "graph/patch_features.h"
+#include "optimize/planes.h"
+#include "pipeline/objects.h"
+#include "pipeline/refine.h"
+#include "supervoxel/supervoxelizer.h"
+
+namespace clutterseg::pipeline {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+}  // namespace
+
+struct Segmenter::Impl {
+  Impl(const SegmenterParams& p, core::ThreadPool* thread_pool)
+      : params((p.ValidateOrThrow(), p)),
+        pool(thread_pool),
+        supervoxelizer(p.supervoxel),
+        features(thread_pool),
+        linkage(p.linkage, thread_pool),
+        plane_labeler(p.planes) {}
+
+  const SegmenterParams params;
+  core::ThreadPool* pool;
+  supervoxel::Supervoxelizer supervoxelizer;
+  graph::PatchFeatureExtractor features;
+  graph::Linkage linkage;
+  optimize::PlaneLabeler plane_labeler;
+  Refiner refiner;
+
+  core::PointCloud work;  // the input restricted to the working depth range
+  supervoxel::Supervoxels sv;
+  graph::PatchFeatures patch;
+  graph::LinkageResult link;
+  optimize::PlaneLabeling planes;
+};
+
+Segmenter::Segmenter(const SegmenterParams& params, core::ThreadPool* pool)
+    : impl_(std::make_unique<Impl>(params, pool)) {}
+
+Segmenter::~Segmenter() = default;
+
+const SegmenterParams& Segmenter::params() const { return impl_->params; }
+
+void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+                        SegmentationResult* result) {
+  Impl& m = *impl_;
+  const auto t_start = Clock::now();
+  StageTimes& times = result->times;
+  times = StageTimes{};
+
+  // Working cloud: points outside the depth range become invalid.
+  auto t0 = Clock::now();
+  const int width = cloud.width;
+  const int height = std::max(cloud.height, 1);
+  m.work.width = width;
+  m.work.height = height;
+  m.work.xyz.resize(cloud.xyz.size());
+  const float zmin = m.params.objects.min_depth_m;
+  const float zmax = m.params.objects.max_depth_m;
+  uint32_t num_valid = 0;
+  for (size_t i = 0; i < cloud.xyz.size(); ++i) {
+    const core::Vec3f& p = cloud.xyz[i];
+    if (core::IsValid(p) && p.z >= zmin && p.z <= zmax) {
+      m.work.xyz[i] = p;
+      ++num_valid;
+    } else {
+      m.work.xyz[i] = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+    }
+  }
+  if (m.params.supervoxel.color_importance > 0.f && cloud.has_color()) {
+    m.work.rgba = cloud.rgba;
+  } else {
+    m.work.rgba.clear();
+  }
+  times.points_ms = MsSince(t0);
+
+  result->width = width;
+  result->height = height;
+  result->num_valid_points = num_valid;
+  result->labels.Reset(width, height, 0u);
+  result->objects.clear();
+  result->planes.clear();
+  result->num_supervoxels = 0;
+  if (num_valid == 0) {
+    times.total_ms = MsSince(t_start);
+    return;
+  }
+
+  t0 = Clock::now();
+  m.supervoxelizer.Compute(m.work, m.pool, &m.sv);
+  const supervoxel::SupervoxelTimings& st = m.supervoxelizer.timings();
+  times.voxelize_ms = st.voxelize_ms + st.adjacency_ms;
+  times.normals_ms = st.normals_ms;
+  times.supervoxels_ms = MsSince(t0);
+  result->num_supervoxels = static_cast<uint32_t>(m.sv.size());
+
+  t0 = Clock::now();
+  m.features.Compute(m.work, m.sv, &m.patch);
+  times.features_ms = MsSince(t0);
+
+  t0 = Clock::now();
+  m.linkage.Compute(m.sv, m.patch, &m.link);
+  times.linkage_ms = MsSince(t0);
+
+  t0 = Clock::now();
+  m.plane_labeler.Compute(m.sv, m.patch, &m.planes);
+  times.planes_ms = MsSince(t0);
+
+  t0 = Clock::now();
+  const uint32_t num_objects =
+      m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch, m.link, m.planes,
+                    &result->labels, &result->planes);
+  times.expansion_ms = 0.0;  // included in planes_ms (PlaneLabeler runs the expansion)
+  ComputeObjects(cloud, result->labels, num_objects, result->planes, &result->objects);
+  times.objects_ms = MsSince(t0);
+  times.total_ms = MsSince(t_start);
+}
+
+}  // namespace clutterseg::pipeline

@@ -1,0 +1,555 @@
+#include "supervoxel/supervoxelizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Eigenvalues>
+
+#include "core/assert.h"
+
+namespace clutterseg::supervoxel {
+namespace {
+
+constexpr float kPi = 3.14159265358979f;
+constexpr float kInf = std::numeric_limits<float>::infinity();
+// Colour distances (0..255 per channel) are divided by this normaliser m.
+constexpr float kColorNormalizer = 255.f;
+constexpr size_t kPointGrain = 16384;
+constexpr size_t kMaxSeedChunks = 8;
+
+using Clock = std::chrono::steady_clock;
+
+double Ms(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+template <typename Fn>
+void ForChunks(core::ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
+  if (n == 0) return;
+  if (pool == nullptr || n <= grain) {
+    for (size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
+    return;
+  }
+  pool->ParallelFor(n, grain, fn);
+}
+
+geometry::VoxelGridParams GridParams(const SupervoxelParams& p) {
+  p.ValidateOrThrow();
+  geometry::VoxelGridParams g;
+  g.voxel_resolution_m = p.voxel_resolution_m;
+  g.use_single_camera_transform = p.use_single_camera_transform;
+  g.max_depth_m = p.max_depth_m;
+  g.compute_mean_color = p.color_importance > 0.f;
+  return g;
+}
+
+inline float Dot(const core::Vec3f& a, const core::Vec3f& b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+inline float Dist2(const core::Vec3f& a, const core::Vec3f& b) {
+  const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+inline core::Vec3f TowardsCamera(const core::Vec3f& c) {
+  const float len = std::sqrt(Dot(c, c));
+  return len > 0.f ? core::Vec3f{-c.x / len, -c.y / len, -c.z / len} : core::Vec3f{0.f, 0.f, -1.f};
+}
+
+inline uint64_t CellKey(const core::Vec3f& p, float inv_cell, int32_t* ix, int32_t* iy,
+                        int32_t* iz) {
+  constexpr int64_t kOffset = int64_t{1} << 20;
+  *ix = static_cast<int32_t>(std::floor(p.x * inv_cell));
+  *iy = static_cast<int32_t>(std::floor(p.y * inv_cell));
+  *iz = static_cast<int32_t>(std::floor(p.z * inv_cell));
+  const uint64_t mask = (uint64_t{1} << 21) - 1;
+  return ((static_cast<uint64_t>(*ix + kOffset) & mask) << 42) |
+         ((static_cast<uint64_t>(*iy + kOffset) & mask) << 21) |
+         (static_cast<uint64_t>(*iz + kOffset) & mask);
+}
+
+}  // namespace
+
+Supervoxelizer::Supervoxelizer(const SupervoxelParams& params)
+    : params_(params), voxelizer_(GridParams(params)) {
+  const float r = params_.seed_resolution_m;
+  spatial_weight_ = params_.spatial_importance / (3.f * r * r);
+  color_weight_ = params_.color_importance / (kColorNormalizer * kColorNormalizer);
+}
+
+float Supervoxelizer::Cost(uint32_t sv, uint32_t voxel) const {
+  const VoxelFeature& f = feature_[voxel];
+  const float ds2 = Dist2(f.centroid, centre_xyz_[sv]);
+  const float dn = 1.f - std::fabs(Dot(f.normal, centre_normal_[sv]));
+  float d = spatial_weight_ * ds2 + params_.normal_importance * dn * dn;
+  if (use_color_) d += color_weight_ * Dist2(grid_.mean_color[voxel], centre_color_[sv]);
+  return d;
+}
+
+void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* pool,
+                             Supervoxels* out) {
+  CLUTTERSEG_DEMAND(out != nullptr);
+  const Clock::time_point t0 = Clock::now();
+  voxelizer_.Voxelize(cloud, pool, &grid_);
+  const Clock::time_point t1 = Clock::now();
+  voxelizer_.ComputeAdjacency(pool, &grid_);
+  const Clock::time_point t2 = Clock::now();
+  voxelizer_.ComputeNormals(pool, &grid_);
+  const Clock::time_point t3 = Clock::now();
+  use_color_ = params_.color_importance > 0.f && !grid_.mean_color.empty();
+  // Growth reads a voxel's centroid and normal together: keep them in one cache line.
+  feature_.resize(grid_.size());
+  for (size_t v = 0; v < grid_.size(); ++v) {
+    feature_[v] = VoxelFeature{grid_.centroid[v], grid_.normal[v]};
+  }
+
+  SelectSeeds(pool);
+  const Clock::time_point t4 = Clock::now();
+
+  // Initial centres are the seed voxels themselves.
+  const size_t num_seeds = seed_.size();
+  centre_xyz_.resize(num_seeds);
+  centre_normal_.resize(num_seeds);
+  centre_color_.resize(num_seeds);
+  float min_z = kInf;
+  for (size_t s = 0; s < num_seeds; ++s) {
+    const uint32_t v = seed_[s];
+    centre_xyz_[s] = grid_.centroid[v];
+    centre_normal_[s] = grid_.normal[v];
+    centre_color_[s] = use_color_ ? grid_.mean_color[v] : core::Vec3f{};
+    min_z = std::min(min_z, grid_.centroid[v].z);
+  }
+  // Enough layers to reach 1.8 seed spacings from the nearest seed (VCCS's search depth).
+  int max_layers = 1;
+  if (num_seeds > 0) {
+    const float voxel = voxelizer_.VoxelSizeAt(std::max(min_z, 0.1f));
+    max_layers = static_cast<int>(
+        std::clamp(std::ceil(1.8f * params_.seed_resolution_m / voxel), 1.f, 1000.f));
+  }
+  Grow(max_layers);
+  for (int it = 0; it < params_.refinement_iterations; ++it) {
+    Recenter();
+    Grow(max_layers);
+  }
+  EnforceConnectivity();
+  AssignLeftovers();
+  const Clock::time_point t5 = Clock::now();
+
+  FillOutput(cloud, pool, out);
+  const Clock::time_point t6 = Clock::now();
+  timings_.voxelize_ms = Ms(t0, t1);
+  timings_.adjacency_ms = Ms(t1, t2);
+  timings_.normals_ms = Ms(t2, t3);
+  timings_.seeding_ms = Ms(t3, t4);
+  timings_.growth_ms = Ms(t4, t5);
+  timings_.output_ms = Ms(t5, t6);
+}
+
+void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
+  const size_t num_voxels = grid_.size();
+  const float cell = params_.seed_resolution_m;
+  const float inv_cell = 1.f / cell;
+
+  // One candidate per occupied seed cell: the voxel nearest the cell centre (lowest index on
+  // ties, as voxels are visited in ascending order).
+  cell_map_.Clear(num_voxels / 8 + 16);
+  cell_best_voxel_.clear();
+  cell_best_dist_.clear();
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const core::Vec3f& c = grid_.centroid[v];
+    int32_t ix, iy, iz;
+    const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
+    const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
+                             (static_cast<float>(iy) + 0.5f) * cell,
+                             (static_cast<float>(iz) + 0.5f) * cell};
+    const float d = Dist2(c, centre);
+    bool inserted = false;
+    const uint32_t slot = cell_map_.FindOrInsert(
+        key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
+    if (inserted) {
+      cell_best_voxel_.push_back(static_cast<uint32_t>(v));
+      cell_best_dist_.push_back(d);
+    } else if (d < cell_best_dist_[slot]) {
+      cell_best_voxel_[slot] = static_cast<uint32_t>(v);
+      cell_best_dist_[slot] = d;
+    }
+  }
+  candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());
+  std::sort(candidates_.begin(), candidates_.end());
+
+  // Occupancy: voxels within seed_resolution / 2 of the candidate, reached through the voxel
+  // graph, against the count a flat disc through that ball would hold.
+  const size_t num_candidates = candidates_.size();
+  candidate_keep_.assign(num_candidates, 0);
+  const size_t grain =
+      std::max<size_t>(64, (num_candidates + kMaxSeedChunks - 1) / kMaxSeedChunks);
+  const size_t num_chunks = core::ThreadPool::NumChunks(num_candidates, grain);
+  if (chunk_marks_.size() < num_chunks) {
+    chunk_marks_.resize(num_chunks);
+    chunk_queue_.resize(num_chunks);
+  }
+  for (size_t k = 0; k < num_chunks; ++k) {
+    if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
+  }
+  const float radius = 0.5f * params_.seed_resolution_m;
+  const float radius2 = radius * radius;
+  ForChunks(pool, num_candidates, grain, [&](size_t b, size_t e) {
+    std::vector<uint8_t>& marks = chunk_marks_[b / grain];
+    std::vector<uint32_t>& queue = chunk_queue_[b / grain];
+    for (size_t k = b; k < e; ++k) {
+      const uint32_t seed = candidates_[k];
+      const core::Vec3f& c = grid_.centroid[seed];
+      queue.clear();
+      queue.push_back(seed);
+      marks[seed] = 1;
+      for (size_t q = 0; q < queue.size(); ++q) {
+        const uint32_t v = queue[q];
+        for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+          const uint32_t n = grid_.adjacency[a];
+          if (marks[n] || Dist2(grid_.centroid[n], c) > radius2) continue;
+          marks[n] = 1;
+          queue.push_back(n);
+        }
+      }
+      for (uint32_t v : queue) marks[v] = 0;
+      const float voxel = voxelizer_.VoxelSizeAt(c.z);
+      const float disc = kPi * radius2 / (voxel * voxel);
+      candidate_keep_[k] =
+          static_cast<float>(queue.size()) >= params_.min_seed_occupancy * disc ? 1 : 0;
+    }
+  });
+
+  // Move each kept seed to the lowest-curvature voxel of its 26-neighbourhood.
+  seed_.clear();
+  for (size_t k = 0; k < num_candidates; ++k) {
+    if (!candidate_keep_[k]) continue;
+    uint32_t best = candidates_[k];
+    float best_curv = grid_.curvature[best];
+    const uint32_t v = candidates_[k];
+    for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+      const uint32_t n = grid_.adjacency[a];
+      const float curv = grid_.curvature[n];
+      if (curv < best_curv || (curv == best_curv && n < best)) {
+        best = n;
+        best_curv = curv;
+      }
+    }
+    seed_.push_back(best);
+  }
+  std::sort(seed_.begin(), seed_.end());
+  seed_.erase(std::unique(seed_.begin(), seed_.end()), seed_.end());
+  num_seeds_ = seed_.size();
+}
+
+void Supervoxelizer::Grow(int max_layers) {
+  const size_t num_voxels = grid_.size();
+  owner_.assign(num_voxels, -1);
+  cost_.assign(num_voxels, kInf);
+  frontier_.clear();
+  for (size_t s = 0; s < seed_.size(); ++s) {
+    owner_[seed_[s]] = static_cast<int32_t>(s);
+    cost_[seed_[s]] = 0.f;
+    frontier_.emplace_back(static_cast<uint32_t>(s), seed_[s]);
+  }
+  // One layer at a time, all supervoxels in turn (the frontier stays grouped by supervoxel in
+  // ascending order). A voxel goes to whoever reaches it most cheaply; a supervoxel that loses
+  // a voxel does not expand from it.
+  const uint32_t* offsets = grid_.adjacency_offsets.data();
+  const uint32_t* adjacency = grid_.adjacency.data();
+  const VoxelFeature* feature = feature_.data();
+  int32_t* owner = owner_.data();
+  float* cost = cost_.data();
+  const float ws = spatial_weight_;
+  const float wn = params_.normal_importance;
+  for (int layer = 0; layer < max_layers && !frontier_.empty(); ++layer) {
+    next_frontier_.clear();
+    for (const auto& [s, v] : frontier_) {
+      const int32_t label = static_cast<int32_t>(s);
+      if (owner[v] != label) continue;
+      const core::Vec3f cx = centre_xyz_[s];
+      const core::Vec3f cn = centre_normal_[s];
+      for (uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
+        const uint32_t n = adjacency[a];
+        const int32_t o = owner[n];
+        if (o == label) continue;
+        float c;
+        if (use_color_) {
+          c = Cost(s, n);
+        } else {
+          const VoxelFeature& f = feature[n];
+          const float dn = 1.f - std::fabs(Dot(f.normal, cn));
+          c = ws * Dist2(f.centroid, cx) + wn * dn * dn;
+        }
+        if (o >= 0 && cost[n] <= c) continue;
+        owner[n] = label;
+        cost[n] = c;
+        next_frontier_.emplace_back(s, n);
+      }
+    }
+    frontier_.swap(next_frontier_);
+  }
+}
+
+void Supervoxelizer::Recenter() {
+  const size_t num_sv = seed_.size();
+  const size_t num_voxels = grid_.size();
+  constexpr size_t kStride = 10;
+  accum_.assign(kStride * num_sv, 0.0);
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const int32_t s = owner_[v];
+    if (s < 0) continue;
+    double* a = &accum_[kStride * static_cast<size_t>(s)];
+    const double w = grid_.num_points[v];
+    const double* ps = &grid_.point_sums[9 * v];
+    const core::Vec3f& n = grid_.normal[v];
+    a[0] += w;
+    a[1] += ps[0];
+    a[2] += ps[1];
+    a[3] += ps[2];
+    a[4] += w * n.x;
+    a[5] += w * n.y;
+    a[6] += w * n.z;
+    if (use_color_) {
+      const core::Vec3f& col = grid_.mean_color[v];
+      a[7] += w * col.x;
+      a[8] += w * col.y;
+      a[9] += w * col.z;
+    }
+  }
+  for (size_t s = 0; s < num_sv; ++s) {
+    const double* a = &accum_[kStride * s];
+    CLUTTERSEG_DEMAND(a[0] > 0.0);  // a supervoxel always keeps its seed
+    const double inv = 1.0 / a[0];
+    centre_xyz_[s] = core::Vec3f{static_cast<float>(a[1] * inv), static_cast<float>(a[2] * inv),
+                                 static_cast<float>(a[3] * inv)};
+    const double len = std::sqrt(a[4] * a[4] + a[5] * a[5] + a[6] * a[6]);
+    if (len > 0.0) {
+      centre_normal_[s] = core::Vec3f{static_cast<float>(a[4] / len),
+                                      static_cast<float>(a[5] / len),
+                                      static_cast<float>(a[6] / len)};
+    }
+    if (use_color_) {
+      centre_color_[s] = core::Vec3f{static_cast<float>(a[7] * inv),
+                                     static_cast<float>(a[8] * inv),
+                                     static_cast<float>(a[9] * inv)};
+    }
+  }
+  // The new seed is the member voxel nearest the centre.
+  best_dist_.assign(num_sv, kInf);
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const int32_t s = owner_[v];
+    if (s < 0) continue;
+    const float d = Dist2(grid_.centroid[v], centre_xyz_[static_cast<size_t>(s)]);
+    if (d < best_dist_[static_cast<size_t>(s)]) {
+      best_dist_[static_cast<size_t>(s)] = d;
+      seed_[static_cast<size_t>(s)] = static_cast<uint32_t>(v);
+    }
+  }
+}
+
+void Supervoxelizer::EnforceConnectivity() {
+  // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
+  // seed and release the rest.
+  const size_t num_voxels = grid_.size();
+  mark_.assign(num_voxels, 0);
+  for (size_t s = 0; s < seed_.size(); ++s) {
+    const int32_t label = static_cast<int32_t>(s);
+    queue_.clear();
+    queue_.push_back(seed_[s]);
+    mark_[seed_[s]] = 1;
+    for (size_t q = 0; q < queue_.size(); ++q) {
+      const uint32_t v = queue_[q];
+      for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        const uint32_t n = grid_.adjacency[a];
+        if (mark_[n] || owner_[n] != label) continue;
+        mark_[n] = 1;
+        queue_.push_back(n);
+      }
+    }
+  }
+  for (size_t v = 0; v < num_voxels; ++v) {
+    if (!mark_[v]) owner_[v] = -1;
+  }
+}
+
+void Supervoxelizer::AssignLeftovers() {
+  const size_t num_voxels = grid_.size();
+  // mark_: 1 = labelled, 2 = queued, 0 = unlabelled (after EnforceConnectivity, mark_ is 1
+  // exactly on labelled voxels).
+  auto has_labelled_neighbour = [&](uint32_t v) {
+    for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+      if (owner_[grid_.adjacency[a]] >= 0) return true;
+    }
+    return false;
+  };
+  frontier_.clear();
+  for (size_t v = 0; v < num_voxels; ++v) {
+    if (owner_[v] < 0 && has_labelled_neighbour(static_cast<uint32_t>(v))) {
+      mark_[v] = 2;
+      frontier_.emplace_back(0, static_cast<uint32_t>(v));
+    }
+  }
+  // Layered breadth-first fill: each layer joins the cheapest labelled neighbour's supervoxel,
+  // decided on the labels of the previous layers only, so the result does not depend on the
+  // order inside a layer. Joining a neighbour keeps supervoxels connected.
+  while (!frontier_.empty()) {
+    for (auto& [label, v] : frontier_) {
+      float best_cost = kInf;
+      int32_t best = -1;
+      for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        const uint32_t n = grid_.adjacency[a];
+        if (mark_[n] != 1) continue;
+        const int32_t s = owner_[n];
+        const float c = Cost(static_cast<uint32_t>(s), v);
+        if (c < best_cost || (c == best_cost && s < best) || best < 0) {
+          best_cost = c;
+          best = s;
+        }
+      }
+      CLUTTERSEG_DEMAND(best >= 0);
+      label = static_cast<uint32_t>(best);
+    }
+    for (const auto& [label, v] : frontier_) owner_[v] = static_cast<int32_t>(label);
+    next_frontier_.clear();
+    for (const auto& [label, v] : frontier_) {
+      mark_[v] = 1;
+      for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        const uint32_t n = grid_.adjacency[a];
+        if (mark_[n] != 0) continue;
+        mark_[n] = 2;
+        next_frontier_.emplace_back(0, n);
+      }
+    }
+    frontier_.swap(next_frontier_);
+  }
+  // Components no seed reached become supervoxels of their own.
+  for (size_t v0 = 0; v0 < num_voxels; ++v0) {
+    if (owner_[v0] >= 0) continue;
+    const int32_t label = static_cast<int32_t>(seed_.size());
+    seed_.push_back(static_cast<uint32_t>(v0));
+    owner_[v0] = label;
+    queue_.clear();
+    queue_.push_back(static_cast<uint32_t>(v0));
+    for (size_t q = 0; q < queue_.size(); ++q) {
+      const uint32_t v = queue_[q];
+      for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        const uint32_t n = grid_.adjacency[a];
+        if (owner_[n] >= 0) continue;
+        owner_[n] = label;
+        queue_.push_back(n);
+      }
+    }
+  }
+}
+
+void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool,
+                                Supervoxels* out) {
+  const size_t n = cloud.size();
+  const size_t num_voxels = grid_.size();
+  const size_t num_sv = seed_.size();
+  out->width = cloud.width;
+  out->height = cloud.height;
+  out->pixel_label.resize(n);
+  ForChunks(pool, n, kPointGrain, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const int32_t v = grid_.point_voxel[i];
+      out->pixel_label[i] = v < 0 ? -1 : owner_[static_cast<size_t>(v)];
+    }
+  });
+
+  // Per-supervoxel point moments, summed over voxels in voxel order.
+  constexpr size_t kStride = 10;
+  accum_.assign(kStride * num_sv, 0.0);
+  for (size_t v = 0; v < num_voxels; ++v) {
+    double* a = &accum_[kStride * static_cast<size_t>(owner_[v])];
+    const double* ps = &grid_.point_sums[9 * v];
+    a[0] += grid_.num_points[v];
+    for (int k = 0; k < 9; ++k) a[1 + k] += ps[k];
+  }
+  out->centroid.resize(num_sv);
+  out->normal.resize(num_sv);
+  out->curvature.resize(num_sv);
+  out->eigenvalues.resize(num_sv);
+  out->num_points.resize(num_sv);
+  ForChunks(pool, num_sv, 256, [&](size_t b, size_t e) {
+    for (size_t s = b; s < e; ++s) {
+      const double* a = &accum_[kStride * s];
+      const double inv = 1.0 / a[0];
+      const double mx = a[1] * inv, my = a[2] * inv, mz = a[3] * inv;
+      const core::Vec3f c{static_cast<float>(mx), static_cast<float>(my), static_cast<float>(mz)};
+      out->centroid[s] = c;
+      out->num_points[s] = static_cast<uint32_t>(a[0]);
+      if (a[0] < 3.0) {
+        out->normal[s] = TowardsCamera(c);
+        out->curvature[s] = 0.f;
+        out->eigenvalues[s] = core::Vec3f{};
+        continue;
+      }
+      Eigen::Matrix3d cov;
+      cov(0, 0) = a[4] * inv - mx * mx;
+      cov(0, 1) = cov(1, 0) = a[5] * inv - mx * my;
+      cov(0, 2) = cov(2, 0) = a[6] * inv - mx * mz;
+      cov(1, 1) = a[7] * inv - my * my;
+      cov(1, 2) = cov(2, 1) = a[8] * inv - my * mz;
+      cov(2, 2) = a[9] * inv - mz * mz;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
+      solver.computeDirect(cov);
+      const Eigen::Vector3d l = solver.eigenvalues().cwiseMax(0.0);
+      Eigen::Vector3d nrm = solver.eigenvectors().col(0);
+      const double len = nrm.norm();
+      if (len > 0.0 && std::isfinite(len)) {
+        nrm /= len;
+        if (nrm.x() * mx + nrm.y() * my + nrm.z() * mz > 0.0) nrm = -nrm;
+        out->normal[s] = core::Vec3f{static_cast<float>(nrm.x()), static_cast<float>(nrm.y()),
+                                     static_cast<float>(nrm.z())};
+      } else {
+        out->normal[s] = TowardsCamera(c);
+      }
+      const double total = l.sum();
+      out->curvature[s] = total > 0.0 ? static_cast<float>(l(0) / total) : 0.f;
+      out->eigenvalues[s] = core::Vec3f{static_cast<float>(l(2)), static_cast<float>(l(1)),
+                                        static_cast<float>(l(0))};
+    }
+  });
+
+  // Supervoxel adjacency from voxel edges whose ends differ.
+  pairs_.clear();
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const uint32_t sv = static_cast<uint32_t>(owner_[v]);
+    uint64_t last = ~uint64_t{0};
+    for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+      const uint32_t nb = grid_.adjacency[a];
+      if (nb <= v) continue;
+      const uint32_t sn = static_cast<uint32_t>(owner_[nb]);
+      if (sn == sv) continue;
+      const uint64_t key = sv < sn ? (uint64_t{sv} << 32) | sn : (uint64_t{sn} << 32) | sv;
+      if (key == last) continue;
+      last = key;
+      pairs_.push_back(key);
+    }
+  }
+  std::sort(pairs_.begin(), pairs_.end());
+  pairs_.erase(std::unique(pairs_.begin(), pairs_.end()), pairs_.end());
+  out->adjacency_offsets.assign(num_sv + 1, 0);
+  for (uint64_t p : pairs_) {
+    ++out->adjacency_offsets[(p >> 32) + 1];
+    ++out->adjacency_offsets[(p & 0xffffffffu) + 1];
+  }
+  for (size_t s = 0; s < num_sv; ++s) out->adjacency_offsets[s + 1] += out->adjacency_offsets[s];
+  out->adjacency.resize(2 * pairs_.size());
+  // Pairs are sorted by (low, high): each node first receives its lower neighbours (as the
+  // high end, ascending), then its higher ones (as the low end, ascending).
+  queue_.assign(out->adjacency_offsets.begin(), out->adjacency_offsets.end() - 1);
+  for (uint64_t p : pairs_) {
+    const uint32_t lo = static_cast<uint32_t>(p >> 32);
+    const uint32_t hi = static_cast<uint32_t>(p & 0xffffffffu);
+    out->adjacency[queue_[lo]++] = hi;
+    out->adjacency[queue_[hi]++] = lo;
+  }
+}
+
+}  // namespace clutterseg::supervoxel

@@ -1,0 +1,114 @@
+#pragma once
+
+#include <cstdint>
+#include <utility>
+#include <vector>
+
+#include "core/point_cloud.h"
+#include "core/thread_pool.h"
+#include "core/types.h"
+#include "geometry/voxel_grid.h"
+#include "supervoxel/supervoxel_params.h"
+#include "supervoxel/supervoxels.h"
+
+namespace clutterseg::supervoxel {
+
+/// Wall-clock time of each stage of the last Supervoxelizer::Compute, milliseconds.
+struct SupervoxelTimings {
+  double voxelize_ms{0.0};   ///< quantisation, key sort, per-voxel sums
+  double adjacency_ms{0.0};  ///< 26-neighbourhood CSR
+  double normals_ms{0.0};    ///< voxel normals and curvature
+  double seeding_ms{0.0};    ///< seed cells, occupancy filter, move to low curvature
+  double growth_ms{0.0};     ///< flow-constrained growth, refinement, connectivity, leftovers
+  double output_ms{0.0};     ///< pixel labels, supervoxel statistics and adjacency
+  double total_ms() const {
+    return voxelize_ms + adjacency_ms + normals_ms + seeding_ms + growth_ms + output_ms;
+  }
+};
+
+/// VCCS supervoxels (Papon et al. 2013; docs/method.md section 1) over an octree-leaf voxel
+/// grid, with two guarantees PCL's implementation lacks: every valid voxel (hence every finite
+/// point within range) belongs to a supervoxel, and every supervoxel's voxels form one
+/// connected component of the 26-neighbourhood voxel graph.
+///
+/// Supervoxel ids: seeded supervoxels first, in ascending voxel-key order of their initial
+/// (moved) seed voxel, then supervoxels of voxel components no seed reached, in ascending
+/// voxel-key order of their first voxel.
+///
+/// Thread-safety: Compute must not run concurrently on one instance (it reuses internal
+/// buffers, so nothing is allocated after the first frames); distinct instances are
+/// independent. Work inside Compute is split over `pool` so that the output is bit-identical
+/// for any pool size, including no pool.
+class Supervoxelizer {
+ public:
+  /// @throws std::invalid_argument when `params` is invalid.
+  explicit Supervoxelizer(const SupervoxelParams& params);
+
+  const SupervoxelParams& params() const { return params_; }
+
+  /// Segments `cloud` (metres, camera frame; organized or not; NaN = invalid) into
+  /// supervoxels, overwriting `out` (whose buffers are reused). `pool` may be null.
+  void Compute(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
+
+  /// The voxel grid of the last Compute (positions in metres, camera frame).
+  const geometry::VoxelGrid& voxels() const { return grid_; }
+  /// Supervoxel id of each voxel of voxels() for the last Compute (all >= 0).
+  const std::vector<int32_t>& voxel_label() const { return owner_; }
+  /// Number of seeds that survived the occupancy filter in the last Compute.
+  size_t num_seeds() const { return num_seeds_; }
+  /// Per-stage timings of the last Compute.
+  const SupervoxelTimings& timings() const { return timings_; }
+
+ private:
+  void SelectSeeds(core::ThreadPool* pool);
+  void Grow(int max_layers);
+  void Recenter();
+  void EnforceConnectivity();
+  void AssignLeftovers();
+  void FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
+  float Cost(uint32_t sv, uint32_t voxel) const;
+
+  struct VoxelFeature {
+    core::Vec3f centroid;
+    core::Vec3f normal;
+  };
+
+  const SupervoxelParams params_;
+  geometry::Voxelizer voxelizer_;
+  geometry::VoxelGrid grid_;
+  SupervoxelTimings timings_;
+  size_t num_seeds_{0};
+  bool use_color_{false};
+  float spatial_weight_{0.f};  // ws / (3 R^2)
+  float color_weight_{0.f};    // wc / m^2
+
+  // Seeding.
+  geometry::internal::KeyIndexMap cell_map_;
+  std::vector<uint32_t> cell_best_voxel_;
+  std::vector<float> cell_best_dist_;
+  std::vector<uint32_t> candidates_;
+  std::vector<uint8_t> candidate_keep_;
+  std::vector<std::vector<uint8_t>> chunk_marks_;
+  std::vector<std::vector<uint32_t>> chunk_queue_;
+
+  // Growth. Supervoxel s has seed seed_[s] and centre centre_*[s].
+  std::vector<uint32_t> seed_;
+  std::vector<core::Vec3f> centre_xyz_;
+  std::vector<core::Vec3f> centre_normal_;
+  std::vector<core::Vec3f> centre_color_;
+  std::vector<VoxelFeature> feature_;
+  std::vector<int32_t> owner_;
+  std::vector<float> cost_;
+  std::vector<std::pair<uint32_t, uint32_t>> frontier_;
+  std::vector<std::pair<uint32_t, uint32_t>> next_frontier_;
+  std::vector<double> accum_;
+  std::vector<float> best_dist_;
+  std::vector<uint32_t> queue_;
+  std::vector<uint8_t> mark_;
+  std::vector<int32_t> pending_;
+
+  // Output.
+  std::vector<uint64_t> pairs_;
+};
+
+}  // namespace clutterseg::supervoxel

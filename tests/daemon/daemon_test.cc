@@ -1,0 +1,293 @@
+#include "daemon/daemon.h"
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <thread>
+#include <vector>
+
+#include "clutterseg/label_image_t.hpp"
+#include "clutterseg/objects_t.hpp"
+#include "clutterseg/status_t.hpp"
+#include "daemon/lcm_bus.h"
+#include "daemon/messages.h"
+#include "drivers/openni2/openni2_source.h"
+#include "tests/daemon/daemon_test_util.h"
+#include "tests/daemon/scripted_source.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::daemon {
+namespace {
+
+using std::chrono::seconds;
+
+// Everything published on one memq bus, collected after the run.
+struct Received {
+  std::vector<clutterseg::objects_t> objects;
+  std::vector<clutterseg::label_image_t> labels;
+  std::vector<clutterseg::status_t> status;
+  void OnObjects(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::objects_t* m) {
+    objects.push_back(*m);
+  }
+  void OnLabels(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::label_image_t* m) {
+    labels.push_back(*m);
+  }
+  void OnStatus(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::status_t* m) {
+    status.push_back(*m);
+  }
+};
+
+config::DaemonConfig MemqConfig() {
+  config::DaemonConfig c;
+  c.lcm_url = "memq://";
+  c.speed = config::Speed::kMax;
+  c.threads = 2;
+  c.status_period_s = 0.05;
+  c.log_level = config::LogLevel::kWarn;
+  return c;
+}
+
+// Runs a daemon to completion on a memq bus and collects what it published.
+struct RunResult {
+  int exit_code{-1};
+  std::string error;
+  DaemonStats stats;
+  Received got;
+};
+
+RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSource> source,
+              const std::function<void(Daemon*)>& during = {}) {
+  LcmBus bus(c.lcm_url);
+  RunResult run;
+  bus.lcm()->subscribe(c.objects_channel, &Received::OnObjects, &run.got);
+  bus.lcm()->subscribe(c.labels_channel, &Received::OnLabels, &run.got);
+  bus.lcm()->subscribe(c.status_channel, &Received::OnStatus, &run.got);
+  {
+    Daemon dut(c, std::move(source), &bus);
+    dut.Start();
+    if (during) during(&dut);
+    EXPECT_TRUE(dut.WaitFor(std::chrono::minutes(5))) << "the daemon did not finish";
+    dut.Join();
+    run.exit_code = dut.exit_code();
+    run.error = dut.error();
+    run.stats = dut.stats();
+  }
+  while (bus.lcm()->handleTimeout(0) > 0) {
+  }
+  return run;
+}
+
+class DaemonOni : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    oni_path_ = (testing::ScratchDir("daemon_oni") / "mosd6.oni").string();
+    have_oni_ = testutil::WriteMosdOni(oni_path_, kFrames);
+  }
+  std::unique_ptr<core::FrameSource> OniSource() {
+    drivers::OpenNI2SourceOptions o;
+    o.uri = oni_path_;
+    o.replay_speed = -1;  // lockstep
+    return std::make_unique<drivers::OpenNI2Source>(o);
+  }
+  static constexpr int kFrames = 6;
+  static inline std::string oni_path_;
+  static inline bool have_oni_{false};
+};
+
+TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  config::DaemonConfig c = MemqConfig();
+  c.pipeline_depth = 2;
+  const RunResult run = RunDaemon(c, OniSource());
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  ASSERT_EQ(run.got.objects.size(), static_cast<size_t>(kFrames));
+  ASSERT_EQ(run.got.labels.size(), static_cast<size_t>(kFrames));
+  int total_objects = 0;
+  for (int i = 0; i < kFrames; ++i) {
+    const auto& m = run.got.objects[static_cast<size_t>(i)];
+    EXPECT_EQ(m.frame_seq, i);
+    EXPECT_EQ(m.camera_name, "camera");
+    EXPECT_EQ(m.intrinsics.width, 640);
+    EXPECT_EQ(m.num_objects, static_cast<int>(m.objects.size()));
+    EXPECT_GT(m.num_valid_points, 100000);
+    EXPECT_GE(m.capture_to_publish_ms, m.times.total_ms);
+    total_objects += m.num_objects;
+    core::LabelImage labels;
+    DecodeLabelImage(run.got.labels[static_cast<size_t>(i)], &labels);
+    ASSERT_EQ(labels.width, 640);
+    ASSERT_EQ(labels.height, 480);
+    uint32_t max_label = 0;
+    for (uint32_t l : labels.data) max_label = std::max(max_label, l);
+    EXPECT_EQ(max_label, static_cast<uint32_t>(m.num_objects)) << "frame " << i;
+  }
+  EXPECT_GT(total_objects, 0) << "real tabletop frames must give objects";
+  ASSERT_FALSE(run.got.status.empty());
+  const auto& last = run.got.status.back();
+  EXPECT_EQ(last.device_state, clutterseg::status_t::DEVICE_END_OF_STREAM);
+  EXPECT_EQ(last.device_state_name, "end_of_stream");
+  EXPECT_EQ(last.frames_captured, kFrames);
+  EXPECT_EQ(last.frames_processed, kFrames);
+  EXPECT_EQ(last.frames_dropped, 0);
+  EXPECT_EQ(last.num_stages, static_cast<int>(kNumStages));
+  EXPECT_EQ(run.stats.frames_published, static_cast<uint64_t>(kFrames));
+}
+
+// Uses in-memory frames: Debian's OpenNI2 crashes when a second thread of the same process
+// replays a recording after the first one has exited, so one process replays one ONI.
+TEST(DaemonScripted, OutputDoesNotDependOnThreadsOrPipelineDepth) {
+  auto frames = testutil::LoadMosdFrames(4);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 4;
+  config::DaemonConfig a = MemqConfig();
+  a.threads = 1;
+  a.pipeline_depth = 1;
+  config::DaemonConfig b = MemqConfig();
+  b.threads = 2;
+  b.pipeline_depth = 3;
+  const RunResult ra = RunDaemon(a, std::make_unique<testutil::ScriptedSource>(frames, s));
+  const RunResult rb = RunDaemon(b, std::make_unique<testutil::ScriptedSource>(frames, s));
+  ASSERT_EQ(ra.got.objects.size(), 4u);
+  ASSERT_EQ(rb.got.objects.size(), 4u);
+  int total_objects = 0;
+  for (size_t i = 0; i < ra.got.objects.size(); ++i) {
+    const auto& x = ra.got.objects[i];
+    const auto& y = rb.got.objects[i];
+    EXPECT_EQ(x.frame_seq, static_cast<int64_t>(i));
+    EXPECT_EQ(y.frame_seq, static_cast<int64_t>(i));
+    ASSERT_EQ(x.num_objects, y.num_objects) << "frame " << i;
+    total_objects += x.num_objects;
+    for (size_t k = 0; k < x.objects.size(); ++k) {
+      EXPECT_EQ(x.objects[k].num_points, y.objects[k].num_points);
+      for (int d = 0; d < 3; ++d) EXPECT_EQ(x.objects[k].centroid[d], y.objects[k].centroid[d]);
+    }
+    EXPECT_EQ(ra.got.labels[i].data, rb.got.labels[i].data) << "frame " << i;
+  }
+  EXPECT_GT(total_objects, 0);
+}
+
+TEST(DaemonScripted, LiveSourceDropsOldestAndAccountsForEveryFrame) {
+  auto frames = testutil::LoadMosdFrames(2);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = true;
+  s.period_us = 1000;  // far faster than segmentation
+  s.total_frames = -1;
+  config::DaemonConfig c = MemqConfig();
+  c.speed = config::Speed::kRealtime;
+  c.queue_capacity = 2;
+  c.max_frames = 8;
+  c.publish_labels = false;
+  const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  ASSERT_EQ(run.got.objects.size(), 8u);
+  for (size_t i = 1; i < run.got.objects.size(); ++i) {
+    EXPECT_GT(run.got.objects[i].frame_seq, run.got.objects[i - 1].frame_seq);
+  }
+  EXPECT_GT(run.stats.frames_dropped, 0u);
+  EXPECT_GE(run.got.objects.back().frame_seq, 8);  // frames were skipped
+  // Every captured frame was processed, dropped by the queue or discarded at the stop.
+  EXPECT_EQ(run.stats.frames_captured,
+            run.stats.frames_processed + run.stats.frames_dropped + run.stats.frames_discarded);
+  EXPECT_EQ(run.stats.frames_published, 8u);
+}
+
+TEST(DaemonScripted, DeviceLossReconnectsWithBackoff) {
+  auto frames = testutil::LoadMosdFrames(1);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 6;
+  s.disconnect_after = 3;
+  s.failed_reopens = 2;
+  config::DaemonConfig c = MemqConfig();
+  c.reconnect_backoff_min_s = 0.01;
+  c.reconnect_backoff_max_s = 0.02;
+  c.publish_labels = false;
+  auto source = std::make_unique<testutil::ScriptedSource>(frames, s);
+  testutil::ScriptedSource* raw = source.get();
+  const RunResult run = RunDaemon(c, std::move(source));
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  EXPECT_EQ(run.stats.reconnect_attempts, 3u);
+  EXPECT_EQ(raw->opens(), 4);  // Start + 2 failures + success
+  ASSERT_EQ(run.got.objects.size(), 6u);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(run.got.objects[static_cast<size_t>(i)].frame_seq, i);
+  ASSERT_FALSE(run.got.status.empty());
+  EXPECT_EQ(run.got.status.back().reconnect_attempts, 3);
+  EXPECT_NE(run.got.status.back().last_error.find("scripted"), std::string::npos)
+      << run.got.status.back().last_error;
+}
+
+TEST(DaemonScripted, SourceErrorEndsTheRunWithExitCodeOne) {
+  auto frames = testutil::LoadMosdFrames(1);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 10;
+  s.error_after = 2;
+  config::DaemonConfig c = MemqConfig();
+  c.publish_labels = false;
+  const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
+  EXPECT_EQ(run.exit_code, kExitRuntimeError);
+  EXPECT_NE(run.error.find("scripted sensor fault"), std::string::npos) << run.error;
+  ASSERT_FALSE(run.got.status.empty());
+  EXPECT_EQ(run.got.status.back().device_state, clutterseg::status_t::DEVICE_ERROR);
+  EXPECT_LE(run.got.objects.size(), 2u);
+}
+
+TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
+  auto frames = testutil::LoadMosdFrames(1);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 5;
+  s.gate_after = 2;
+  config::DaemonConfig c = MemqConfig();
+  c.publish_labels = false;
+  auto source = std::make_unique<testutil::ScriptedSource>(frames, s);
+  testutil::ScriptedSource* raw = source.get();
+  const RunResult run = RunDaemon(c, std::move(source), [&](Daemon* d) {
+    while (d->stats().frames_published < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    pipeline::SegmenterParams bad = c.segmenter;
+    bad.objects.min_object_points = 0;
+    EXPECT_THROW(d->UpdateSegmenterParams(bad), std::invalid_argument);
+    pipeline::SegmenterParams none = c.segmenter;
+    none.objects.min_object_points = 100000000;  // no segment is that large
+    d->UpdateSegmenterParams(none);
+    raw->OpenGate();
+  });
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  ASSERT_EQ(run.got.objects.size(), 5u);
+  EXPECT_GT(run.got.objects[0].num_objects, 0);
+  EXPECT_EQ(run.got.objects[0].num_objects, run.got.objects[1].num_objects);
+  for (size_t i = 2; i < 5; ++i) EXPECT_EQ(run.got.objects[i].num_objects, 0) << "frame " << i;
+  EXPECT_EQ(run.stats.param_reloads, 1u);
+}
+
+TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
+  auto frames = testutil::LoadMosdFrames(1);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = true;
+  s.period_us = 5000;
+  s.total_frames = -1;
+  config::DaemonConfig c = MemqConfig();
+  c.speed = config::Speed::kRealtime;
+  c.publish_labels = false;
+  const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s), [](Daemon* d) {
+    while (d->stats().frames_published < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    d->RequestStop();
+  });
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  EXPECT_GE(run.got.objects.size(), 2u);
+  EXPECT_EQ(run.stats.frames_published, run.got.objects.size());
+  EXPECT_EQ(run.stats.frames_captured,
+            run.stats.frames_processed + run.stats.frames_dropped + run.stats.frames_discarded);
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon

@@ -1,0 +1,166 @@
+#include "tests/daemon/daemon_test_util.h"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include <atomic>
+#include <cstdlib>
+#include <thread>
+
+#include "core/frame.h"
+#include "drivers/oni/oni_writer.h"
+#include "drivers/replay/pcd_directory_source.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::daemon::testutil {
+
+bool WriteMosdOni(const std::string& path, int frames) {
+  if (!testing::HaveData("mosd-learn/learn0.pcd")) return false;
+  drivers::PcdDirectorySourceOptions po;
+  po.path = (testing::DataDir() / "mosd-learn").string();
+  drivers::PcdDirectorySource pcd(po);
+  pcd.Open();
+  drivers::OniWriter writer;
+  core::RgbdFrame frame;
+  for (int i = 0; i < frames; ++i) {
+    if (pcd.Read(1000, &frame) != core::ReadStatus::kOk) return false;
+    if (i == 0) {
+      writer.Open(path, frame.depth.width, frame.depth.height, 30, frame.intrinsics, true);
+    }
+    writer.WriteFrame(frame.depth, &frame.color, static_cast<int64_t>(i) * 33333);
+  }
+  writer.Close();
+  return true;
+}
+
+Child Spawn(const std::vector<std::string>& argv) {
+  int pipefd[2];
+  if (pipe2(pipefd, O_CLOEXEC) != 0) return {};
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int null_fd = open("/dev/null", O_WRONLY);
+    dup2(null_fd, STDOUT_FILENO);
+    dup2(pipefd[1], STDERR_FILENO);
+    // The test runner may have blocked signals; the child starts with a clean mask.
+    sigset_t none;
+    sigemptyset(&none);
+    sigprocmask(SIG_SETMASK, &none, nullptr);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    execv(args[0], args.data());
+    _exit(127);
+  }
+  close(pipefd[1]);
+  if (pid < 0) {
+    close(pipefd[0]);
+    return {};
+  }
+  return {pid, pipefd[0]};
+}
+
+int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err) {
+  if (child->pid <= 0) return -1;
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  int status = 0;
+  bool exited = false;
+  char buf[4096];
+  auto drain = [&](int wait_ms) {
+    while (child->stderr_fd >= 0) {
+      pollfd pfd{child->stderr_fd, POLLIN, 0};
+      if (poll(&pfd, 1, wait_ms) <= 0) return;
+      const ssize_t n = read(child->stderr_fd, buf, sizeof(buf));
+      if (n <= 0) {
+        close(child->stderr_fd);
+        child->stderr_fd = -1;
+        return;
+      }
+      err->append(buf, static_cast<size_t>(n));
+    }
+  };
+  while (!exited) {
+    drain(0);  // so the child never blocks on a full pipe
+    if (waitpid(child->pid, &status, WNOHANG) == child->pid) {
+      exited = true;
+    } else if (std::chrono::steady_clock::now() > deadline) {
+      kill(child->pid, SIGKILL);
+      waitpid(child->pid, &status, 0);
+      drain(0);
+      if (child->stderr_fd >= 0) close(child->stderr_fd);
+      child->stderr_fd = -1;
+      child->pid = -1;
+      return -1;
+    } else {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+  }
+  drain(200);
+  if (child->stderr_fd >= 0) close(child->stderr_fd);
+  child->stderr_fd = -1;
+  child->pid = -1;
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return -1;
+}
+
+int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout,
+        std::string* err) {
+  Child c = Spawn(argv);
+  return Wait(&c, timeout, err);
+}
+
+std::vector<LogEvent> ReadLcmLog(const std::string& path) {
+  std::vector<LogEvent> events;
+  lcm::LogFile log(path, "r");
+  if (!log.good()) return events;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    const auto* p = static_cast<const uint8_t*>(ev->data);
+    events.push_back({ev->channel, std::vector<uint8_t>(p, p + ev->datalen)});
+  }
+  return events;
+}
+
+namespace {
+int Shell(const std::string& cmd) {
+  const int rc = std::system((cmd + " >/dev/null 2>&1").c_str());
+  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+}  // namespace
+
+NetNamespace::NetNamespace(bool route) {
+  static std::atomic<int> counter{0};
+  name_ = "clutterseg_test_" + std::to_string(getpid()) + "_" + std::to_string(counter++);
+  if (geteuid() != 0) {
+    why_ = "needs root to create a network namespace";
+    return;
+  }
+  if (Shell("ip netns add " + name_) != 0) {
+    why_ = "'ip netns add' failed (no network namespace support here)";
+    return;
+  }
+  created_ = true;
+  if (route) {
+    if (Shell("ip -n " + name_ + " link set lo up") != 0 ||
+        Shell("ip -n " + name_ + " route add 224.0.0.0/4 dev lo") != 0) {
+      why_ = "could not set up lo and the multicast route in the namespace";
+      return;
+    }
+  }
+  ok_ = true;
+}
+
+NetNamespace::~NetNamespace() {
+  if (created_) Shell("ip netns del " + name_);
+}
+
+std::vector<std::string> NetNamespace::Exec(const std::vector<std::string>& argv) const {
+  std::vector<std::string> out = {"/usr/sbin/ip", "netns", "exec", name_};
+  out.insert(out.end(), argv.begin(), argv.end());
+  return out;
+}
+
+}  // namespace clutterseg::daemon::testutil

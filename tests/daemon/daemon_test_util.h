@@ -1,0 +1,64 @@
+#pragma once
+
+// Helpers shared by the daemon tests: real recordings, child processes, LCM logs and
+// private network namespaces.
+
+#include <signal.h>
+#include <sys/types.h>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+namespace clutterseg::daemon::testutil {
+
+/// Writes an ONI recording of `frames` real Kinect frames (mOSD learn0, learn1, ...; depth +
+/// colour, 30 fps timestamps) with drivers::OniWriter. Returns false when the data is absent.
+bool WriteMosdOni(const std::string& path, int frames);
+
+/// A child process with its stderr captured.
+struct Child {
+  pid_t pid{-1};
+  int stderr_fd{-1};
+};
+
+/// Starts `argv` (argv[0] is a path) with stdout to /dev/null and stderr to a pipe.
+Child Spawn(const std::vector<std::string>& argv);
+/// Waits up to `timeout` for the child; returns its exit code, 128 + signal when killed by a
+/// signal, or -1 on timeout (the child is then killed). Appends its stderr to `*err`.
+int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err);
+/// Spawn + Wait.
+int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout,
+        std::string* err);
+
+/// One event of an LCM log.
+struct LogEvent {
+  std::string channel;
+  std::vector<uint8_t> data;
+};
+/// Reads every event of an LCM log file with lcm::LogFile.
+std::vector<LogEvent> ReadLcmLog(const std::string& path);
+
+/// A private network namespace for multicast tests; deleted by the destructor.
+class NetNamespace {
+ public:
+  /// Creates the namespace (unique name); with `route`, brings lo up and routes 224.0.0.0/4
+  /// to it. ok() is false (and why() says why) when not root or `ip netns` fails.
+  explicit NetNamespace(bool route);
+  ~NetNamespace();
+  NetNamespace(const NetNamespace&) = delete;
+  NetNamespace& operator=(const NetNamespace&) = delete;
+  bool ok() const { return ok_; }
+  const std::string& why() const { return why_; }
+  const std::string& name() const { return name_; }
+  /// `ip netns exec NAME argv...`
+  std::vector<std::string> Exec(const std::vector<std::string>& argv) const;
+
+ private:
+  std::string name_;
+  bool created_{false};
+  bool ok_{false};
+  std::string why_;
+};
+
+}  // namespace clutterseg::daemon::testutil

@@ -1,0 +1,153 @@
+#include "daemon/lcm_bus.h"
+
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <thread>
+
+#include "clutterseg/objects_t.hpp"
+#include "clutterseg/status_t.hpp"
+#include "tests/daemon/daemon_test_util.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::daemon {
+namespace {
+
+clutterseg::objects_t Objects(int64_t seq, int num_objects) {
+  clutterseg::objects_t m{};
+  m.utime = seq * 1000;
+  m.frame_seq = seq;
+  m.camera_name = "camera";
+  m.num_objects = num_objects;
+  m.objects.resize(static_cast<size_t>(num_objects));
+  for (int i = 0; i < num_objects; ++i) m.objects[static_cast<size_t>(i)].id = i + 1;
+  return m;
+}
+
+struct Collector {
+  std::vector<int64_t> seqs;
+  std::vector<int> counts;
+  void Handle(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::objects_t* msg) {
+    seqs.push_back(msg->frame_seq);
+    counts.push_back(msg->num_objects);
+  }
+};
+
+TEST(LcmBus, MemqDeliversToSubscribersOfTheSameInstance) {
+  LcmBus dut("memq://");
+  Collector got;
+  dut.lcm()->subscribe("CLUTTERSEG_OBJECTS", &Collector::Handle, &got);
+  for (int i = 0; i < 5; ++i) EXPECT_TRUE(dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(i, i)));
+  while (dut.lcm()->handleTimeout(0) > 0) {
+  }
+  EXPECT_EQ(got.seqs, (std::vector<int64_t>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(got.counts, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(dut.published(), 5u);
+  EXPECT_EQ(dut.failures(), 0u);
+
+  // A second memq instance is a different bus.
+  LcmBus other("memq://");
+  Collector none;
+  other.lcm()->subscribe("CLUTTERSEG_OBJECTS", &Collector::Handle, &none);
+  dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(9, 1));
+  other.lcm()->handleTimeout(10);
+  EXPECT_TRUE(none.seqs.empty());
+}
+
+TEST(LcmBus, FileLogIsReadBackWithLogFile) {
+  const auto path = testing::ScratchDir("lcm_bus_file") / "out.lcmlog";
+  {
+    LcmBus dut("file://" + path.string() + "?mode=w");
+    for (int i = 0; i < 20; ++i) dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(i, 3));
+    clutterseg::status_t s{};
+    s.device_state_name = "streaming";
+    dut.PublishMessage("CLUTTERSEG_STATUS", s);
+    EXPECT_EQ(dut.published(), 21u);
+  }
+  const auto events = testutil::ReadLcmLog(path.string());
+  ASSERT_EQ(events.size(), 21u);
+  for (int i = 0; i < 20; ++i) {
+    ASSERT_EQ(events[static_cast<size_t>(i)].channel, "CLUTTERSEG_OBJECTS");
+    clutterseg::objects_t m;
+    const auto& d = events[static_cast<size_t>(i)].data;
+    ASSERT_EQ(m.decode(d.data(), 0, static_cast<int>(d.size())), static_cast<int>(d.size()));
+    EXPECT_EQ(m.frame_seq, i);
+    EXPECT_EQ(m.num_objects, 3);
+  }
+  EXPECT_EQ(events.back().channel, "CLUTTERSEG_STATUS");
+}
+
+TEST(LcmBus, UnopenableUrlsThrowWithAClearMessage) {
+  try {
+    LcmBus dut("file:///nonexistent_dir_for_clutterseg/x.lcmlog?mode=r");
+    FAIL() << "expected LcmUnavailableError";
+  } catch (const LcmUnavailableError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("nonexistent_dir_for_clutterseg"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("log file"), std::string::npos) << msg;
+  }
+  try {
+    LcmBus dut("bogus://x");
+    FAIL() << "expected LcmUnavailableError";
+  } catch (const LcmUnavailableError& e) {
+    EXPECT_NE(std::string(e.what()).find("bogus://x"), std::string::npos) << e.what();
+  }
+}
+
+TEST(LcmBus, MulticastHelpNamesTheRouteCommand) {
+  const std::string help = MulticastRouteHelp();
+  EXPECT_NE(help.find("ip route add 224.0.0.0/4 dev lo"), std::string::npos);
+  EXPECT_NE(help.find("memq://"), std::string::npos);
+}
+
+TEST(LcmBus, FailedPublishesAreCounted) {
+  // tcpq:// reports good() even without a hub, then every publish fails. Point it at a
+  // loopback port that was just closed, so nothing can be listening.
+  const int s = socket(AF_INET, SOCK_STREAM, 0);
+  ASSERT_GE(s, 0);
+  sockaddr_in addr{};
+  addr.sin_family = AF_INET;
+  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(bind(s, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  socklen_t len = sizeof(addr);
+  ASSERT_EQ(getsockname(s, reinterpret_cast<sockaddr*>(&addr), &len), 0);
+  const int port = ntohs(addr.sin_port);
+  close(s);
+  LcmBus dut("tcpq://127.0.0.1:" + std::to_string(port));
+  EXPECT_FALSE(dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(0, 1)));
+  EXPECT_FALSE(dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(1, 1)));
+  EXPECT_EQ(dut.failures(), 2u);
+  EXPECT_EQ(dut.published(), 0u);
+}
+
+TEST(LcmBus, UdpmBetweenTwoProcessesInAPrivateNamespace) {
+  testutil::NetNamespace ns(/*route=*/true);
+  if (!ns.ok()) GTEST_SKIP() << "udpm test skipped: " << ns.why();
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  const auto ready = testing::ScratchDir("lcm_udpm") / "ready";
+  testutil::Child sub = testutil::Spawn(
+      ns.Exec({LCM_UDPM_PEER, "sub", url + "&recv_buf_size=4194304", "CS_TEST", "40",
+               ready.string()}));
+  ASSERT_GT(sub.pid, 0);
+  for (int i = 0; i < 1000 && !std::filesystem::exists(ready); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(std::filesystem::exists(ready)) << "the subscriber did not start";
+  std::string pub_err;
+  const int pub_rc = testutil::Run(ns.Exec({LCM_UDPM_PEER, "pub", url, "CS_TEST", "40"}),
+                                   std::chrono::seconds(30), &pub_err);
+  EXPECT_EQ(pub_rc, 0) << pub_err;
+  std::string sub_err;
+  EXPECT_EQ(testutil::Wait(&sub, std::chrono::seconds(30), &sub_err), 0) << sub_err;
+  EXPECT_NE(sub_err.find("received 40 in_order 1"), std::string::npos) << sub_err;
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon

@@ -1,0 +1,333 @@
+#include "graph/linkage.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/thread_pool.h"
+#include "graph/patch_features.h"
+#include "tests/graph/synthetic_tiles.h"
+
+namespace clutterseg::graph {
+namespace {
+
+core::Vec3f Normalized(core::Vec3f v) {
+  const float n = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+  return {v.x / n, v.y / n, v.z / n};
+}
+
+// A hand-made graph of patches: features and a CSR adjacency from an edge list.
+struct HandGraph {
+  supervoxel::Supervoxels sv;
+  PatchFeatures f;
+
+  int Add(core::Vec3f centroid, core::Vec3f normal, PatchType type) {
+    const size_t i = f.size();
+    f.Resize(i + 1);
+    f.centroid[i] = centroid;
+    f.normal[i] = Normalized(normal);
+    f.type[i] = type;
+    f.num_points[i] = 100;
+    f.a2d[i] = type == PatchType::kPlanar ? 0.9f : 0.1f;
+    sv.centroid.push_back(centroid);
+    sv.normal.push_back(f.normal[i]);
+    sv.curvature.push_back(0.f);
+    sv.num_points.push_back(100);
+    return static_cast<int>(i);
+  }
+  void Connect(const std::vector<std::pair<uint32_t, uint32_t>>& edges) {
+    testing::BuildCsr(static_cast<int>(f.size()), edges, &sv.adjacency_offsets, &sv.adjacency);
+  }
+  // Kept flag of edge (i, j).
+  int Kept(const LinkageResult& r, uint32_t i, uint32_t j) const { return Slot(r.edge_kept, i, j); }
+  int Convex(const LinkageResult& r, uint32_t i, uint32_t j) const {
+    return Slot(r.edge_convex, i, j);
+  }
+  int Slot(const std::vector<uint8_t>& v, uint32_t i, uint32_t j) const {
+    for (uint32_t s = sv.adjacency_offsets[i]; s < sv.adjacency_offsets[i + 1]; ++s) {
+      if (sv.adjacency[s] == j) return v[s];
+    }
+    return -1;
+  }
+};
+
+const core::Vec3f kUp{0.f, -1.f, 0.f};      // table / box top normal (camera y points down)
+const core::Vec3f kFacing{0.f, 0.f, -1.f};  // a face looking at the camera
+
+TEST(IsConvexConnection, BoxEdgeIsConvex) {
+  LinkageParams p;
+  // Box top (y = 0.2) meets the box front face (z = 1.0) at a convex edge.
+  EXPECT_TRUE(IsConvexConnection({0, 0.2f, 1.02f}, kUp, {0, 0.22f, 1.0f}, kFacing, p));
+  EXPECT_TRUE(IsConvexConnection({0, 0.22f, 1.0f}, kFacing, {0, 0.2f, 1.02f}, kUp, p));
+}
+
+TEST(IsConvexConnection, TableCreaseIsConcave) {
+  LinkageParams p;
+  // Front face (z = 1.0) standing on the table (y = 0.3): a concave crease.
+  EXPECT_FALSE(IsConvexConnection({0, 0.28f, 1.0f}, kFacing, {0, 0.3f, 0.98f}, kUp, p));
+  EXPECT_FALSE(IsConvexConnection({0, 0.3f, 0.98f}, kUp, {0, 0.28f, 1.0f}, kFacing, p));
+  // The concavity tolerance accepts a shallow concavity (5 deg) but not a 20 deg one.
+  const float a5 = 5.f * 3.14159265f / 180.f, a20 = 20.f * 3.14159265f / 180.f;
+  const core::Vec3f tilted5{0, -std::cos(a5), -std::sin(a5)};
+  const core::Vec3f tilted20{0, -std::cos(a20), -std::sin(a20)};
+  // Patch j beyond patch i (farther in z), tilted towards the camera: a shallow valley.
+  EXPECT_FALSE(IsConvexConnection({0, 0.3f, 1.0f}, kUp, {0, 0.3f, 1.03f}, tilted20, p));
+  EXPECT_TRUE(IsConvexConnection({0, 0.3f, 1.0f}, kUp, {0, 0.3f, 1.03f}, tilted5, p));
+  p.concavity_tolerance_deg = 2.f;
+  EXPECT_FALSE(IsConvexConnection({0, 0.3f, 1.0f}, kUp, {0, 0.3f, 1.03f}, tilted5, p));
+}
+
+TEST(IsConvexConnection, SanityCriterionCutsNearParallelStep) {
+  // Two patches side by side along x, 5 mm apart in height, normals 20 deg apart about x:
+  // convex by the normal test, but the connection runs along the intersection line.
+  const float a = 20.f * 3.14159265f / 180.f;
+  const core::Vec3f ni = kUp;
+  const core::Vec3f nj{0, -std::cos(a), -std::sin(a)};
+  const core::Vec3f ci{0.f, 0.3f, 1.f}, cj{0.05f, 0.305f, 1.f};
+  LinkageParams p;
+  p.use_sanity_criterion = false;
+  EXPECT_TRUE(IsConvexConnection(ci, ni, cj, nj, p));
+  p.use_sanity_criterion = true;
+  EXPECT_FALSE(IsConvexConnection(ci, ni, cj, nj, p));
+  EXPECT_FALSE(IsConvexConnection(cj, nj, ci, ni, p));
+  // The same normals with the connection across the crease line pass the sanity check.
+  EXPECT_TRUE(IsConvexConnection({0, 0.2f, 1.02f}, kUp, {0, 0.22f, 1.0f}, kFacing, p));
+}
+
+TEST(Linkage, BoxFacesKeptTableCreaseCut) {
+  HandGraph g;
+  const int table_a = g.Add({0, 0.3f, 0.95f}, kUp, PatchType::kPlanar);
+  const int table_b = g.Add({0.03f, 0.3f, 0.95f}, kUp, PatchType::kPlanar);
+  const int front_low = g.Add({0, 0.28f, 1.0f}, kFacing, PatchType::kPlanar);
+  const int front_high = g.Add({0, 0.22f, 1.0f}, kFacing, PatchType::kPlanar);
+  const int top = g.Add({0, 0.2f, 1.02f}, kUp, PatchType::kPlanar);
+  g.Connect({{0, 1}, {0, 2}, {1, 2}, {2, 3}, {3, 4}});
+  Linkage dut(LinkageParams{});
+  LinkageResult r;
+  dut.Compute(g.sv, g.f, &r);
+  EXPECT_EQ(g.Kept(r, table_a, table_b), 1);
+  EXPECT_EQ(g.Kept(r, table_b, table_a), 1);
+  EXPECT_EQ(g.Kept(r, table_a, front_low), 0);
+  EXPECT_EQ(g.Kept(r, front_low, table_b), 0);
+  EXPECT_EQ(g.Kept(r, front_low, front_high), 1);
+  EXPECT_EQ(g.Kept(r, front_high, top), 1);
+  EXPECT_EQ(g.Convex(r, top, front_high), 1);
+  ASSERT_EQ(r.num_segments, 2);
+  EXPECT_EQ(r.segment[table_a], 0);
+  EXPECT_EQ(r.segment[table_b], 0);
+  EXPECT_EQ(r.segment[front_low], 1);
+  EXPECT_EQ(r.segment[front_high], 1);
+  EXPECT_EQ(r.segment[top], 1);
+  EXPECT_EQ(r.segment_size, (std::vector<uint32_t>{2, 3}));
+}
+
+TEST(Linkage, TypeFilterIsAMajorityVote) {
+  HandGraph g;
+  // Node 0 (non-planar) with 3 planar neighbours of 4 becomes planar; node 5 (planar) with
+  // one planar and one non-planar neighbour (a tie) keeps its type.
+  g.Add({0, 0.3f, 1.f}, kUp, PatchType::kNonPlanar);
+  g.Add({0.02f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({-0.02f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0, 0.3f, 1.02f}, kUp, PatchType::kPlanar);
+  g.Add({0, 0.3f, 0.98f}, kUp, PatchType::kNonPlanar);
+  g.Add({0.1f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.12f, 0.3f, 1.f}, kUp, PatchType::kNonPlanar);
+  g.Connect({{0, 1}, {0, 2}, {0, 3}, {0, 4}, {5, 1}, {5, 6}});
+  LinkageResult r;
+  Linkage(LinkageParams{}).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(r.filtered_type[0], PatchType::kPlanar);
+  EXPECT_EQ(r.filtered_type[5], PatchType::kPlanar);
+  // Node 4's only neighbour is node 0, non-planar before filtering; node 6 follows node 5.
+  EXPECT_EQ(r.filtered_type[4], PatchType::kNonPlanar);
+  EXPECT_EQ(r.filtered_type[6], PatchType::kPlanar);
+  LinkageParams no_filter;
+  no_filter.use_type_filter = false;
+  Linkage(no_filter).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(r.filtered_type[0], PatchType::kNonPlanar);
+  EXPECT_EQ(r.edge_kept[0], 0);  // 0-1: types differ -> cut
+  LinkageParams no_type_cut = no_filter;
+  no_type_cut.cut_on_type_change = false;
+  Linkage(no_type_cut).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(r.num_segments, 1);
+}
+
+TEST(Linkage, ComponentsNumberedBySmallestSupervoxel) {
+  HandGraph g;
+  for (int i = 0; i < 6; ++i) g.Add({0.02f * i, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  // Components {0, 3, 5}, {1, 4}, {2}; coplanar patches, so every edge is kept.
+  g.Connect({{5, 3}, {3, 0}, {4, 1}});
+  LinkageResult r;
+  Linkage(LinkageParams{}).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(r.num_segments, 3);
+  EXPECT_EQ(r.segment, (std::vector<int32_t>{0, 1, 2, 0, 1, 0}));
+  // Small components merge into their largest neighbour.
+  g.Connect({{5, 3}, {3, 0}, {4, 1}, {2, 4}, {2, 3}});
+  LinkageParams p;
+  p.cut_on_type_change = true;
+  p.min_segment_supervoxels = 1;
+  HandGraph h = g;
+  h.f.type[2] = PatchType::kNonPlanar;  // cut away by the type change (no filter majority)
+  p.use_type_filter = false;
+  Linkage(p).Compute(h.sv, h.f, &r);
+  EXPECT_EQ(r.segment, (std::vector<int32_t>{0, 1, 2, 0, 1, 0}));
+  p.min_segment_supervoxels = 2;
+  Linkage(p).Compute(h.sv, h.f, &r);
+  EXPECT_EQ(r.num_segments, 2);
+  EXPECT_EQ(r.segment, (std::vector<int32_t>{0, 1, 0, 0, 1, 0}));  // 2 joins {0, 3, 5}
+}
+
+TEST(Linkage, ExtendedConvexityNeedsConvexTriangles) {
+  HandGraph g;
+  // A triangle of coplanar patches plus a pendant edge without common neighbours.
+  g.Add({0, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.02f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.01f, 0.3f, 1.02f}, kUp, PatchType::kPlanar);
+  g.Add({0.04f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Connect({{0, 1}, {1, 2}, {0, 2}, {1, 3}});
+  LinkageParams p;
+  p.use_extended_convexity = true;
+  LinkageResult r;
+  Linkage(p).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(g.Convex(r, 0, 1), 1);
+  EXPECT_EQ(g.Convex(r, 1, 2), 1);
+  EXPECT_EQ(g.Convex(r, 1, 3), 0);
+  EXPECT_EQ(r.num_segments, 2);
+}
+
+TEST(Linkage, RejectsMalformedInput) {
+  HandGraph g;
+  g.Add({0, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.02f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.sv.adjacency_offsets = {0, 1, 1};  // 0 -> 1 without 1 -> 0
+  g.sv.adjacency = {1};
+  LinkageResult r;
+  Linkage dut(LinkageParams{});
+  EXPECT_THROW(dut.Compute(g.sv, g.f, &r), std::runtime_error);
+  g.Connect({{0, 1}});
+  PatchFeatures short_f = g.f;
+  short_f.Resize(1);
+  EXPECT_THROW(dut.Compute(g.sv, short_f, &r), std::runtime_error);
+  LinkageParams bad;
+  bad.min_segment_supervoxels = 0;
+  EXPECT_THROW(Linkage{bad}, std::invalid_argument);
+  bad = LinkageParams{};
+  bad.concavity_tolerance_deg = -1.f;
+  EXPECT_THROW(Linkage{bad}, std::invalid_argument);
+}
+
+// Renders a box on a table, tiles it and runs features + linkage.
+struct SceneLinkage {
+  testing::TabletopScene scene;
+  core::PointCloud cloud;
+  std::vector<int32_t> surface;
+  supervoxel::Supervoxels sv;
+  PatchFeatures f;
+  std::vector<int32_t> pure;  // surface of >= 80% of a cell's pixels, or -2
+};
+
+SceneLinkage MakeScene() {
+  SceneLinkage s;
+  s.scene.wall_distance_m = 1.5;  // bounds the table before grazing, sparse depths
+  // Faces on multiples of the 3 cm cell size, so that they lie mid cell.
+  s.scene.boxes.push_back({{-0.12, 0.9, 0.0}, {0.06, 1.08, 0.15}});
+  s.scene.boxes.push_back({{0.15, 0.96, 0.0}, {0.30, 1.05, 0.09}});
+  testing::Render(s.scene, &s.cloud, &s.surface);
+  // Cell boundaries 2 mm above the table: box faces start in their own cells.
+  s.sv = testing::VoxelSupervoxels(s.scene, s.cloud, 0.03, 0.002);
+  PatchFeatureExtractor().Compute(s.cloud, s.sv, &s.f);
+  s.pure = testing::MajoritySurface(s.sv, s.surface, 0.8);
+  return s;
+}
+
+TEST(Linkage, SceneSeparatesBoxesFromTable) {
+  const SceneLinkage s = MakeScene();
+  LinkageResult r;
+  Linkage(LinkageParams{}).Compute(s.sv, s.f, &r);
+  // The table's pure cells form one dominant segment that holds no pure box cell.
+  std::map<int32_t, int> table_segments;
+  int table_cells = 0;
+  for (size_t i = 0; i < s.sv.size(); ++i) {
+    if (s.pure[i] == testing::kSurfaceTable) {
+      ++table_segments[r.segment[i]];
+      ++table_cells;
+    }
+  }
+  ASSERT_GT(table_cells, 300);
+  const auto best = std::max_element(table_segments.begin(), table_segments.end(),
+                                     [](auto a, auto b) { return a.second < b.second; });
+  const int32_t table_segment = best->first;
+  EXPECT_GT(best->second, 0.97 * table_cells);
+  // Edges inside a box are convex; edges between a box and the table are not.
+  int box_edges = 0, box_convex = 0, crease_edges = 0, crease_convex = 0;
+  std::map<int32_t, std::map<int32_t, int>> box_segments;  // box -> segment -> cells
+  for (size_t i = 0; i < s.sv.size(); ++i) {
+    if (s.pure[i] >= testing::kSurfaceBox0) {
+      EXPECT_NE(r.segment[i], table_segment) << "box cell " << i;
+      ++box_segments[s.pure[i]][r.segment[i]];
+    }
+    for (uint32_t k = s.sv.adjacency_offsets[i]; k < s.sv.adjacency_offsets[i + 1]; ++k) {
+      const uint32_t j = s.sv.adjacency[k];
+      if (s.pure[i] >= testing::kSurfaceBox0 && s.pure[j] == s.pure[i]) {
+        ++box_edges;
+        box_convex += r.edge_convex[k];
+      }
+      if (s.pure[i] >= testing::kSurfaceBox0 && s.pure[j] == testing::kSurfaceTable) {
+        ++crease_edges;
+        crease_convex += r.edge_convex[k];
+      }
+    }
+  }
+  ASSERT_GT(box_edges, 100);
+  ASSERT_GE(crease_edges, 5);               // one per bottom cell of the front faces
+  EXPECT_GT(box_convex, 0.95 * box_edges);  // a few sliver cells on box edges are noisy
+  EXPECT_EQ(crease_convex, 0);
+  // Each box's largest segment is its own.
+  ASSERT_EQ(box_segments.size(), 2u);
+  std::vector<int32_t> dominant;
+  for (const auto& [box, segs] : box_segments) {
+    int total = 0;
+    for (const auto& [seg, c] : segs) total += c;
+    const auto it = std::max_element(segs.begin(), segs.end(),
+                                     [](auto a, auto b) { return a.second < b.second; });
+    EXPECT_GT(it->second, 0.5 * total) << "box " << box;
+    dominant.push_back(it->first);
+  }
+  EXPECT_NE(dominant[0], dominant[1]);
+}
+
+TEST(Linkage, IdenticalForAnyThreadCount) {
+  const SceneLinkage s = MakeScene();
+  LinkageParams p;
+  p.use_extended_convexity = true;
+  p.min_segment_supervoxels = 3;
+  LinkageResult reference;
+  Linkage(p).Compute(s.sv, s.f, &reference);
+  for (int threads : {1, 2, 3}) {
+    core::ThreadPool pool(threads);
+    Linkage dut(p, &pool);
+    LinkageResult r;
+    dut.Compute(s.sv, s.f, &r);
+    EXPECT_EQ(r.segment, reference.segment);
+    EXPECT_EQ(r.edge_kept, reference.edge_kept);
+    EXPECT_EQ(r.edge_convex, reference.edge_convex);
+    EXPECT_EQ(r.num_segments, reference.num_segments);
+  }
+  // Edge flags are symmetric.
+  for (size_t i = 0; i < s.sv.size(); ++i) {
+    for (uint32_t k = s.sv.adjacency_offsets[i]; k < s.sv.adjacency_offsets[i + 1]; ++k) {
+      const uint32_t j = s.sv.adjacency[k];
+      const auto first = s.sv.adjacency.begin() + s.sv.adjacency_offsets[j];
+      const auto last = s.sv.adjacency.begin() + s.sv.adjacency_offsets[j + 1];
+      const size_t back =
+          std::lower_bound(first, last, static_cast<uint32_t>(i)) - s.sv.adjacency.begin();
+      ASSERT_EQ(reference.edge_kept[k], reference.edge_kept[back]);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace clutterseg::graph

@@ -1,0 +1,116 @@
+// Runs the clutterseg-synth executable (only built into synth_test when clutterseg_io is
+// available) and checks its files and exit codes.
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include "io/pcd.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::synth {
+namespace {
+
+namespace fs = std::filesystem;
+
+int RunTool(const std::string& args) {
+  const std::string cmd = std::string(CLUTTERSEG_SYNTH_TOOL) + " " + args + " >/dev/null 2>&1";
+  const int status = std::system(cmd.c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+std::string ReadAll(const fs::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+}
+
+std::vector<std::string> ListFiles(const fs::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(dir)) names.push_back(e.path().filename().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+TEST(SynthTool, SameSeedGivesByteIdenticalFiles) {
+  const fs::path a = testing::ScratchDir("synth_tool_a");
+  const fs::path b = testing::ScratchDir("synth_tool_b");
+  const fs::path c = testing::ScratchDir("synth_tool_c");
+  ASSERT_EQ(RunTool("--out " + a.string() + " --count 2 --seed 5 --png"), 0);
+  ASSERT_EQ(RunTool("--out " + b.string() + " --count 2 --seed 5 --png --threads 2"), 0);
+  ASSERT_EQ(RunTool("--out " + c.string() + " --count 2 --seed 6 --png"), 0);
+  const std::vector<std::string> files = ListFiles(a);
+  const std::vector<std::string> expected = {
+      "intrinsics.json",      "scene_0000.pcd", "scene_0000_color.png", "scene_0000_depth.png",
+      "scene_0000_label.png", "scene_0001.pcd", "scene_0001_color.png", "scene_0001_depth.png",
+      "scene_0001_label.png", "scenes.json"};
+  EXPECT_EQ(files, expected);
+  EXPECT_EQ(ListFiles(b), files);
+  for (const std::string& f : files) EXPECT_EQ(ReadAll(a / f), ReadAll(b / f)) << f;
+  EXPECT_NE(ReadAll(a / "scene_0000.pcd"), ReadAll(c / "scene_0000.pcd"));
+
+  const core::PointCloud cloud = io::ReadPcd((a / "scene_0000.pcd").string());
+  EXPECT_EQ(cloud.width, 640);
+  EXPECT_EQ(cloud.height, 480);
+  ASSERT_TRUE(cloud.has_label());
+  ASSERT_TRUE(cloud.has_color());
+  const uint32_t max_label = *std::max_element(cloud.label.begin(), cloud.label.end());
+  EXPECT_GE(max_label, 1u);
+  EXPECT_LE(max_label, 8u);  // default object range 3..8
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    if (cloud.label[i] != 0) {
+      ASSERT_TRUE(core::IsValid(cloud.xyz[i]));
+    }
+  }
+  const std::string manifest = ReadAll(a / "scenes.json");
+  EXPECT_NE(manifest.find("\"pcd\": \"scene_0001.pcd\""), std::string::npos);
+  EXPECT_NE(manifest.find("\"seed\": 5"), std::string::npos);
+  EXPECT_NE(ReadAll(a / "intrinsics.json").find("\"fx\": 525"), std::string::npos);
+}
+
+TEST(SynthTool, SequenceAndResolution) {
+  const fs::path dir = testing::ScratchDir("synth_tool_seq");
+  ASSERT_EQ(RunTool("--out " + dir.string() +
+                    " --sequence --frames 4 --seed 3 --width 320 --height 240 --no-noise"),
+            0);
+  std::set<uint32_t> previous;
+  for (int k = 0; k < 4; ++k) {
+    const fs::path p = dir / ("scene_0000_frame_000" + std::to_string(k) + ".pcd");
+    ASSERT_TRUE(fs::exists(p)) << p;
+    const core::PointCloud cloud = io::ReadPcd(p.string());
+    EXPECT_EQ(cloud.width, 320);
+    EXPECT_EQ(cloud.height, 240);
+    std::set<uint32_t> labels(cloud.label.begin(), cloud.label.end());
+    labels.erase(0);
+    EXPECT_LE(labels.size(), static_cast<size_t>(k));
+    if (!labels.empty()) {
+      EXPECT_LE(*labels.rbegin(), static_cast<uint32_t>(k));
+    }
+  }
+}
+
+TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {
+  const fs::path dir = testing::ScratchDir("synth_tool_bad");
+  const std::string out = " --out " + dir.string();
+  EXPECT_EQ(RunTool(""), 2);  // --out missing
+  EXPECT_EQ(RunTool(out + " --objects 5:2"), 2);
+  EXPECT_EQ(RunTool(out + " --objects many"), 2);
+  EXPECT_EQ(RunTool(out + " --count 0"), 2);
+  EXPECT_EQ(RunTool(out + " --width 3"), 2);
+  EXPECT_EQ(RunTool(out + " --no-such-option"), 2);
+  EXPECT_EQ(RunTool("--help"), 0);
+  // The output path is an existing regular file.
+  const fs::path file = dir / "not_a_dir";
+  std::ofstream(file) << "x";
+  EXPECT_EQ(RunTool("--out " + file.string()), 1);
+  EXPECT_EQ(RunTool("--out " + (file / "sub").string()), 1);
+}
+
+}  // namespace
+}  // namespace clutterseg::synth

@@ -1,0 +1,23 @@
+# clutterseg-record: records a live OpenNI2 camera to .oni, or builds an .oni from PCD files.
+if(TARGET clutterseg_driver_openni2 AND TARGET clutterseg_driver_replay AND TARGET clutterseg_oni)
+  add_executable(clutterseg-record ${CMAKE_CURRENT_LIST_DIR}/clutterseg_record.cc)
+  target_link_libraries(clutterseg-record PRIVATE clutterseg::driver_openni2
+                        clutterseg::driver_replay clutterseg::oni PkgConfig::OPENNI2
+                        CLI11::CLI11 clutterseg_options)
+endif()
+
+if(TARGET clutterseg-record AND CLUTTERSEG_BUILD_TESTS)
+  enable_testing()  # this directory is added before the top level enables testing
+  # Without a camera the live mode must fail cleanly with exit code 1.
+  add_test(NAME clutterseg_record.no_device
+           COMMAND clutterseg-record ${CMAKE_CURRENT_BINARY_DIR}/no_device.oni --frames 1)
+  set_tests_properties(clutterseg_record.no_device PROPERTIES
+    PASS_REGULAR_EXPRESSION "no OpenNI2 device is connected" TIMEOUT 60 LABELS "drivers")
+  if(EXISTS "${CLUTTERSEG_DATA_DIR}/mosd-learn/learn0.pcd")
+    add_test(NAME clutterseg_record.from_pcd
+             COMMAND clutterseg-record ${CMAKE_CURRENT_BINARY_DIR}/from_pcd.oni
+                     --from-pcd ${CLUTTERSEG_DATA_DIR}/mosd-learn --frames 3)
+    set_tests_properties(clutterseg_record.from_pcd PROPERTIES
+      PASS_REGULAR_EXPRESSION "wrote 3 frames \\(depth\\+color\\)" TIMEOUT 60 LABELS "drivers")
+  endif()
+endif()
