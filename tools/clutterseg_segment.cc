@@ -173,9 +173,18 @@ int main(int argc, char** argv) {
   const bool dir_mode = fs::is_directory(opt.input, ec);
   if (dir_mode) {
     std::vector<fs::path> inputs;
+    // A directory of PCDs is read as such; otherwise its depth PNGs (names containing
+    // "depth") are the frames.
     for (const auto& e : fs::directory_iterator(opt.input, ec)) {
-      const fs::path& p = e.path();
-      if (p.extension() == ".pcd" || IsPng(p)) inputs.push_back(p);
+      if (e.path().extension() == ".pcd") inputs.push_back(e.path());
+    }
+    if (inputs.empty()) {
+      for (const auto& e : fs::directory_iterator(opt.input, ec)) {
+        const fs::path& p = e.path();
+        if (IsPng(p) && p.filename().string().find("depth") != std::string::npos) {
+          inputs.push_back(p);
+        }
+      }
     }
     std::sort(inputs.begin(), inputs.end());
     if (inputs.empty()) {

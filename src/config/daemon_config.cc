@@ -1,17 +1,17 @@
 #include "config/daemon_config.h"
 
-#include <yaml-cpp/yaml.h>
-
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
-#include <cctype>
 #include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
+
+#include <yaml-cpp/yaml.h>
 
 #include "config/internal/key_table.h"
 #include "config/segmenter_keys.h"
@@ -35,8 +35,10 @@ T ParseInteger(const std::string& text, const char* what) {
   const char* end = text.data() + text.size();
   if (begin != end && *begin == '+') ++begin;
   const auto [ptr, ec] = std::from_chars(begin, end, value);
-  if (ec == std::errc::result_out_of_range) throw std::invalid_argument(std::string("expected ") + what + " (out of range)");
-  if (ec != std::errc() || ptr != end || begin == end) throw std::invalid_argument(std::string("expected ") + what);
+  if (ec == std::errc::result_out_of_range)
+    throw std::invalid_argument(std::string("expected ") + what + " (out of range)");
+  if (ec != std::errc() || ptr != end || begin == end)
+    throw std::invalid_argument(std::string("expected ") + what);
   return value;
 }
 
@@ -162,7 +164,8 @@ std::string Suggest(const std::string& path) {
   for (const auto& k : DaemonKeys()) {
     if (LastComponent(k.path) == last) return " (did you mean '" + k.path + "'?)";
   }
-  const std::string parent = path.substr(0, path.rfind('.') == std::string::npos ? 0 : path.rfind('.'));
+  const std::string parent =
+      path.substr(0, path.rfind('.') == std::string::npos ? 0 : path.rfind('.'));
   if (!parent.empty() && IsSection(parent)) {
     std::string keys;
     for (const auto& k : DaemonKeys()) {
@@ -200,7 +203,8 @@ void Walk(const YAML::Node& node, const std::string& prefix, const std::string& 
     const std::string path = prefix.empty() ? key_node.Scalar() : prefix + "." + key_node.Scalar();
     if (const Key<DaemonConfig>* key = FindKey(path)) {
       if (value.IsNull()) {
-        throw ConfigError(where + ": key '" + path + "' has no value (write the default to keep it)");
+        throw ConfigError(where + ": key '" + path +
+                          "' has no value (write the default to keep it)");
       }
       if (!value.IsScalar()) {
         throw ConfigError(where + ": key '" + path + "': expected a single value, got a " +
@@ -210,7 +214,8 @@ void Walk(const YAML::Node& node, const std::string& prefix, const std::string& 
     } else if (IsSection(path)) {
       if (value.IsNull()) continue;  // an empty section keeps the defaults
       if (!value.IsMap()) {
-        throw ConfigError(where + ": key '" + path + "' is a section: expected a map of keys, got '" +
+        throw ConfigError(where + ": key '" + path +
+                          "' is a section: expected a map of keys, got '" +
                           (value.IsScalar() ? value.Scalar() : std::string("a list")) + "'");
       }
       Walk(value, path, origin, config);
@@ -234,7 +239,8 @@ void DaemonConfig::ValidateOrThrow() const {
   auto fail = [](const std::string& key, const std::string& value, const char* want) {
     throw std::invalid_argument("key '" + key + "' = " + value + " is invalid (" + want + ")");
   };
-  if (source.empty()) fail("source", "''", "expected device, device:URI, FILE.oni, DIR or synthetic");
+  if (source.empty())
+    fail("source", "''", "expected device, device:URI, FILE.oni, DIR or synthetic");
   if (lcm_url.empty()) fail("lcm.url", "''", "expected an LCM URL such as memq:// or udpm://...");
   if (objects_channel.empty()) fail("lcm.objects_channel", "''", "expected a channel name");
   if (labels_channel.empty()) fail("lcm.labels_channel", "''", "expected a channel name");
@@ -243,16 +249,19 @@ void DaemonConfig::ValidateOrThrow() const {
   if (queue_capacity < 1 || queue_capacity > 1024) {
     fail("processing.queue_capacity", std::to_string(queue_capacity), "expected 1..1024");
   }
-  if (threads < 0 || threads > 256) fail("processing.threads", std::to_string(threads), "expected 0..256, 0 = cores");
+  if (threads < 0 || threads > 256)
+    fail("processing.threads", std::to_string(threads), "expected 0..256, 0 = cores");
   if (pipeline_depth < 1 || pipeline_depth > 8) {
     fail("processing.pipeline_depth", std::to_string(pipeline_depth), "expected 1..8");
   }
-  if (max_frames < 0) fail("processing.max_frames", std::to_string(max_frames), "expected >= 0, 0 = no limit");
+  if (max_frames < 0)
+    fail("processing.max_frames", std::to_string(max_frames), "expected >= 0, 0 = no limit");
   if (!(status_period_s >= 0.05 && status_period_s <= 3600.0)) {
     fail("status.period_s", internal::FormatDouble(status_period_s), "expected 0.05..3600 s");
   }
   if (!(reconnect_backoff_min_s > 0.0 && reconnect_backoff_min_s <= 3600.0)) {
-    fail("reconnect.backoff_min_s", internal::FormatDouble(reconnect_backoff_min_s), "expected (0, 3600] s");
+    fail("reconnect.backoff_min_s", internal::FormatDouble(reconnect_backoff_min_s),
+         "expected (0, 3600] s");
   }
   if (!(reconnect_backoff_max_s >= reconnect_backoff_min_s && reconnect_backoff_max_s <= 3600.0)) {
     fail("reconnect.backoff_max_s", internal::FormatDouble(reconnect_backoff_max_s),
@@ -351,19 +360,26 @@ const char* ToString(Speed speed) { return speed == Speed::kMax ? "max" : "realt
 
 const char* ToString(LogLevel level) {
   switch (level) {
-    case LogLevel::kDebug: return "debug";
-    case LogLevel::kInfo: return "info";
-    case LogLevel::kWarn: return "warn";
-    case LogLevel::kError: return "error";
+    case LogLevel::kDebug:
+      return "debug";
+    case LogLevel::kInfo:
+      return "info";
+    case LogLevel::kWarn:
+      return "warn";
+    case LogLevel::kError:
+      return "error";
   }
   return "info";
 }
 
 const char* ToString(LabelCompression compression) {
   switch (compression) {
-    case LabelCompression::kNone: return "none";
-    case LabelCompression::kRle: return "rle";
-    case LabelCompression::kZlib: return "zlib";
+    case LabelCompression::kNone:
+      return "none";
+    case LabelCompression::kRle:
+      return "rle";
+    case LabelCompression::kZlib:
+      return "zlib";
   }
   return "zlib";
 }

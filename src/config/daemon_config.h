@@ -28,21 +28,21 @@ struct DaemonConfig {
   /// Frame source: `device` (first OpenNI2 device), `device:URI`, `FILE.oni`, a directory of
   /// PCD or depth PNG frames, or `synthetic`.
   std::string source{"device"};
-  Speed speed{Speed::kRealtime};  ///< replay speed of recordings (ignored for live devices)
-  bool loop{false};               ///< restart a recording at its end instead of exiting
+  Speed speed{Speed::kRealtime};      ///< replay speed of recordings (ignored for live devices)
+  bool loop{false};                   ///< restart a recording at its end instead of exiting
   std::string camera_name{"camera"};  ///< camera frame name put in every message
 
   std::string lcm_url{"udpm://239.255.76.67:7667?ttl=0"};  ///< LCM provider URL
-  std::string objects_channel{"CLUTTERSEG_OBJECTS"};      ///< objects_t channel
-  std::string labels_channel{"CLUTTERSEG_LABELS"};        ///< label_image_t channel
-  std::string status_channel{"CLUTTERSEG_STATUS"};        ///< status_t channel
-  bool publish_labels{true};  ///< publish a label_image_t per frame
+  std::string objects_channel{"CLUTTERSEG_OBJECTS"};       ///< objects_t channel
+  std::string labels_channel{"CLUTTERSEG_LABELS"};         ///< label_image_t channel
+  std::string status_channel{"CLUTTERSEG_STATUS"};         ///< status_t channel
+  bool publish_labels{true};                               ///< publish a label_image_t per frame
   LabelCompression label_compression{LabelCompression::kZlib};
 
-  int queue_capacity{4};    ///< frames waiting between capture and processing (drop-oldest)
-  int threads{0};           ///< worker threads for segmentation; 0 = number of cores
-  int pipeline_depth{2};    ///< frames segmented concurrently (one Segmenter each)
-  int64_t max_frames{0};    ///< stop after publishing this many frames; 0 = no limit
+  int queue_capacity{4};        ///< frames waiting between capture and processing (drop-oldest)
+  int threads{0};               ///< worker threads for segmentation; 0 = number of cores
+  int pipeline_depth{2};        ///< frames segmented concurrently (one Segmenter each)
+  int64_t max_frames{0};        ///< stop after publishing this many frames; 0 = no limit
   double status_period_s{1.0};  ///< status_t and stderr status line period, seconds
   double reconnect_backoff_min_s{0.5};  ///< first retry delay after device loss, seconds
   double reconnect_backoff_max_s{8.0};  ///< retry delays double up to this, seconds

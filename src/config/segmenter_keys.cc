@@ -4,8 +4,8 @@ namespace clutterseg::config {
 
 // The one place that maps YAML keys under `segmenter:` to pipeline::SegmenterParams fields.
 // Key path = "<section>.<field>"; the type (bool, int, float, ...) comes from the field.
-#define CLUTTERSEG_SEGMENTER_KEY(section, field)                                          \
-  internal::MakeKey(#section "." #field, &pipeline::SegmenterParams::section,             \
+#define CLUTTERSEG_SEGMENTER_KEY(section, field)                              \
+  internal::MakeKey(#section "." #field, &pipeline::SegmenterParams::section, \
                     &decltype(pipeline::SegmenterParams::section)::field)
 
 const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
@@ -48,6 +48,7 @@ const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, min_object_points),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_min_area_m2),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_snap_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, below_support_margin_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, max_depth_m),
   };

@@ -76,11 +76,16 @@ struct Lane {
 
 const char* ToString(DeviceState state) {
   switch (state) {
-    case DeviceState::kStarting: return "starting";
-    case DeviceState::kStreaming: return "streaming";
-    case DeviceState::kReconnecting: return "reconnecting";
-    case DeviceState::kEndOfStream: return "end_of_stream";
-    case DeviceState::kError: return "error";
+    case DeviceState::kStarting:
+      return "starting";
+    case DeviceState::kStreaming:
+      return "streaming";
+    case DeviceState::kReconnecting:
+      return "reconnecting";
+    case DeviceState::kEndOfStream:
+      return "end_of_stream";
+    case DeviceState::kError:
+      return "error";
   }
   return "error";
 }
@@ -142,13 +147,9 @@ struct Daemon::Impl {
   void RequestStop() {
     if (stop.exchange(true)) return;
     if (source) source->RequestStop();
-    {
-      std::lock_guard<std::mutex> lock(stop_mutex);
-    }
+    { std::lock_guard<std::mutex> lock(stop_mutex); }
     stop_cv.notify_all();
-    {
-      std::lock_guard<std::mutex> lock(pipe_mutex);
-    }
+    { std::lock_guard<std::mutex> lock(pipe_mutex); }
     pipe_cv.notify_all();
   }
 
@@ -186,10 +187,10 @@ struct Daemon::Impl {
       const bool live = source->IsLive();
       const bool lockstep = !live && config.speed == config::Speed::kMax;
       const bool pace = !live && config.speed == config::Speed::kRealtime;
-      const auto min_backoff = std::chrono::microseconds(
-          static_cast<int64_t>(config.reconnect_backoff_min_s * 1e6));
-      const auto max_backoff = std::chrono::microseconds(
-          static_cast<int64_t>(config.reconnect_backoff_max_s * 1e6));
+      const auto min_backoff =
+          std::chrono::microseconds(static_cast<int64_t>(config.reconnect_backoff_min_s * 1e6));
+      const auto max_backoff =
+          std::chrono::microseconds(static_cast<int64_t>(config.reconnect_backoff_max_s * 1e6));
       int64_t pace_utime0 = 0;
       Clock::time_point pace_t0;
       bool pace_base = false;
@@ -219,15 +220,16 @@ struct Daemon::Impl {
               if (due - now > std::chrono::seconds(2)) {  // a jump in the recording's clock
                 pace_utime0 = frame->utime;
                 pace_t0 = now;
-              } else if (due > now && SleepUnlessStopped(
-                                          std::chrono::duration_cast<std::chrono::microseconds>(
-                                              due - now))) {
+              } else if (due > now &&
+                         SleepUnlessStopped(
+                             std::chrono::duration_cast<std::chrono::microseconds>(due - now))) {
                 break;
               }
             }
             queue->push();
             captured.fetch_add(1);
-            if (GetDeviceState() != DeviceState::kStreaming) SetDeviceState(DeviceState::kStreaming);
+            if (GetDeviceState() != DeviceState::kStreaming)
+              SetDeviceState(DeviceState::kStreaming);
             break;
           }
           case core::ReadStatus::kTimeout:
@@ -546,8 +548,8 @@ struct Daemon::Impl {
   void PublishLoop() {
     SetThreadName("cs-publish");
     auto ps = std::make_unique<PublisherState>();
-    const auto period = std::chrono::microseconds(
-        static_cast<int64_t>(config.status_period_s * 1e6));
+    const auto period =
+        std::chrono::microseconds(static_cast<int64_t>(config.status_period_s * 1e6));
     auto next_status = Clock::now() + period;
     size_t p = 0;
     for (;;) {

@@ -48,7 +48,7 @@ struct DaemonStats {
   uint64_t frames_discarded{0};  ///< waiting frames not processed because of a stop request
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
-  uint64_t param_reloads{0};     ///< segmenter parameter sets applied after start
+  uint64_t param_reloads{0};  ///< segmenter parameter sets applied after start
   DeviceState device_state{DeviceState::kStarting};
 };
 

@@ -22,8 +22,9 @@ LcmBus::LcmBus(const std::string& url) : url_(url) {
     if (url.empty() || url.rfind("udpm", 0) == 0 || url.rfind("mpudpm", 0) == 0) {
       message += ".\n" + MulticastRouteHelp();
     } else if (url.rfind("file://", 0) == 0) {
-      message += ": the log file cannot be opened (check the path, its directory and ?mode=w "
-                 "for writing)";
+      message +=
+          ": the log file cannot be opened (check the path, its directory and ?mode=w "
+          "for writing)";
     } else {
       message += ": LCM rejected the URL (supported providers: udpm, mpudpm, memq, file, tcpq)";
     }

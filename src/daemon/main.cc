@@ -6,10 +6,8 @@
 
 #include <poll.h>
 #include <signal.h>
-#include <sys/signalfd.h>
 #include <unistd.h>
 
-#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -18,6 +16,9 @@
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+#include <sys/signalfd.h>
 
 #include "config/daemon_config.h"
 #include "daemon/daemon.h"
@@ -86,7 +87,8 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
                                        " (applied from the next frame)");
             } catch (const std::exception& e) {
               Log(LogLevel::kError, std::string("SIGHUP: reload failed, keeping the current "
-                                                "parameters: ") + e.what());
+                                                "parameters: ") +
+                                        e.what());
             }
           }
         } else if (!stopping) {
@@ -126,7 +128,8 @@ int Run(int argc, char** argv) {
       "command line or configuration, 3 source cannot be opened, 4 LCM unavailable.\n"
       "Signals: SIGINT/SIGTERM finish the frames in flight and exit; SIGHUP reloads the "
       "segmenter parameters from --config.");
-  app.add_option("--config", cl.config_path, "YAML configuration file (see config/clutterseg.yaml)");
+  app.add_option("--config", cl.config_path,
+                 "YAML configuration file (see config/clutterseg.yaml)");
   app.add_option("--source", cl.source,
                  "device | device:URI | FILE.oni | DIR (PCD or depth PNG frames) | synthetic");
   app.add_option("--speed", cl.speed, "replay speed of recordings: realtime | max");
@@ -204,18 +207,18 @@ int Run(int argc, char** argv) {
       ShutdownSourceDrivers();
       return kExitSourceUnavailable;
     }
-    Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() +
-                             " (" + cfg.objects_channel + ")");
+    Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
+                             cfg.objects_channel + ")");
     RunUntilDone(cl, signal_fd, daemon.get());
     daemon->Join();
     code = daemon->exit_code();
     const DaemonStats s = daemon->stats();
-    Log(LogLevel::kInfo,
-        "done: " + std::to_string(s.frames_captured) + " captured, " +
-            std::to_string(s.frames_processed) + " processed, " +
-            std::to_string(s.frames_published) + " published, " +
-            std::to_string(s.frames_dropped) + " dropped, " + std::to_string(s.publish_failures) +
-            " publish failures" + (code == kExitOk ? "" : "; error: " + daemon->error()));
+    Log(LogLevel::kInfo, "done: " + std::to_string(s.frames_captured) + " captured, " +
+                             std::to_string(s.frames_processed) + " processed, " +
+                             std::to_string(s.frames_published) + " published, " +
+                             std::to_string(s.frames_dropped) + " dropped, " +
+                             std::to_string(s.publish_failures) + " publish failures" +
+                             (code == kExitOk ? "" : "; error: " + daemon->error()));
   }
   ShutdownSourceDrivers();
   close(signal_fd);

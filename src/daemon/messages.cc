@@ -18,7 +18,9 @@ void Copy3(const core::Vec3f& v, float* out) {
   out[2] = v.z;
 }
 
-uint16_t ClampLabel(uint32_t label) { return static_cast<uint16_t>(std::min<uint32_t>(label, 65535u)); }
+uint16_t ClampLabel(uint32_t label) {
+  return static_cast<uint16_t>(std::min<uint32_t>(label, 65535u));
+}
 
 void PutU16(uint16_t v, std::vector<uint8_t>* out) {
   out->push_back(static_cast<uint8_t>(v & 0xff));
@@ -181,7 +183,8 @@ void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* la
       from_raw(msg.data.data(), msg.data.size());
       return;
     case clutterseg::label_image_t::COMPRESSION_RLE: {
-      if (msg.data.size() % 6 != 0) throw std::runtime_error("label_image_t: RLE data is truncated");
+      if (msg.data.size() % 6 != 0)
+        throw std::runtime_error("label_image_t: RLE data is truncated");
       size_t pos = 0;
       for (size_t i = 0; i < msg.data.size(); i += 6) {
         const uint16_t v = GetU16(&msg.data[i]);
@@ -196,7 +199,8 @@ void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* la
     case clutterseg::label_image_t::COMPRESSION_ZLIB: {
       std::vector<uint8_t> raw(2 * n);
       uLongf size = static_cast<uLongf>(raw.size());
-      if (uncompress(raw.data(), &size, msg.data.data(), static_cast<uLong>(msg.data.size())) != Z_OK) {
+      if (uncompress(raw.data(), &size, msg.data.data(), static_cast<uLong>(msg.data.size())) !=
+          Z_OK) {
         throw std::runtime_error("label_image_t: corrupt zlib data");
       }
       from_raw(raw.data(), size);
@@ -209,14 +213,14 @@ void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* la
 }
 
 const std::array<std::string, kNumStages>& StageNames() {
-  static const std::array<std::string, kNumStages> kNames = {"points",  "voxelize", "normals",
-                                                  "supervoxels", "features", "linkage",
-                                                  "planes",  "expansion", "objects"};
+  static const std::array<std::string, kNumStages> kNames = {"points",      "voxelize",  "normals",
+                                                             "supervoxels", "features",  "linkage",
+                                                             "planes",      "expansion", "objects"};
   return kNames;
 }
 
 std::array<double, kNumStages> StageValues(const pipeline::StageTimes& t) {
-  return {t.points_ms,   t.voxelize_ms, t.normals_ms,   t.supervoxels_ms, t.features_ms,
+  return {t.points_ms,  t.voxelize_ms, t.normals_ms,   t.supervoxels_ms, t.features_ms,
           t.linkage_ms, t.planes_ms,   t.expansion_ms, t.objects_ms};
 }
 

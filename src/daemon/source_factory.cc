@@ -12,12 +12,16 @@
 #include "drivers/replay/depth_png_source.h"
 #include "drivers/replay/pcd_directory_source.h"
 #endif
+#ifdef CLUTTERSEG_HAVE_SYNTHETIC_SOURCE
+#include "drivers/replay/synthetic_source.h"
+#endif
 
 namespace clutterseg::daemon {
 namespace {
 
 bool EndsWith(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 bool HasPcdFiles(const std::filesystem::path& dir) {
@@ -28,8 +32,9 @@ bool HasPcdFiles(const std::filesystem::path& dir) {
   return false;
 }
 
-[[noreturn]] void NotBuilt(const std::string& source, const char* what) {
-  throw std::invalid_argument("source '" + source + "': " + what + " support is not built into "
+[[noreturn, maybe_unused]] void NotBuilt(const std::string& source, const char* what) {
+  throw std::invalid_argument("source '" + source + "': " + what +
+                              " support is not built into "
                               "this binary");
 }
 
@@ -45,12 +50,12 @@ SourceKind ClassifySource(const std::string& source) {
   }
   if (std::filesystem::exists(source, ec)) {
     throw SourceOpenError("source '" + source +
-                                "' is a file but not an .oni recording (expected device, "
-                                "device:URI, FILE.oni, DIR or synthetic)");
+                          "' is a file but not an .oni recording (expected device, "
+                          "device:URI, FILE.oni, DIR or synthetic)");
   }
   throw SourceOpenError("source '" + source +
-                              "' does not exist (expected device, device:URI, FILE.oni, DIR "
-                              "or synthetic)");
+                        "' does not exist (expected device, device:URI, FILE.oni, DIR "
+                        "or synthetic)");
 }
 
 std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config) {
@@ -99,8 +104,18 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
       NotBuilt(source, "depth PNG directory");
 #endif
     }
-    case SourceKind::kSynthetic:
+    case SourceKind::kSynthetic: {
+#ifdef CLUTTERSEG_HAVE_SYNTHETIC_SOURCE
+      drivers::SyntheticSourceOptions o;
+      o.loop = config.loop;
+      o.real_time = !max_speed;
+      o.camera_name = config.camera_name;
+      o.ValidateOrThrow();
+      return std::make_unique<drivers::SyntheticSource>(o);
+#else
       NotBuilt(source, "synthetic scene");
+#endif
+    }
   }
   throw std::invalid_argument("source '" + source + "': unknown kind");
 }

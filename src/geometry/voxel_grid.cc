@@ -135,8 +135,8 @@ bool Voxelizer::Quantize(const core::Vec3f& p, VoxelCoord* c) const {
 void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
   CLUTTERSEG_DEMAND(grid != nullptr);
   const size_t n = cloud.size();
-  const bool organized = cloud.organized() && static_cast<size_t>(cloud.width) *
-                                                      static_cast<size_t>(cloud.height) == n;
+  const bool organized = cloud.organized() &&
+                         static_cast<size_t>(cloud.width) * static_cast<size_t>(cloud.height) == n;
   const size_t w = organized ? static_cast<size_t>(cloud.width) : 0;
   const bool with_color = params_.compute_mean_color && cloud.rgba.size() == n && n > 0;
   grid->width = cloud.width;
@@ -281,9 +281,9 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
       const double* src = &tmp_sums_[9 * v];
       std::copy_n(src, 9, &grid->point_sums[9 * k]);
       const double inv = 1.0 / count;
-      grid->centroid[k] = core::Vec3f{static_cast<float>(src[0] * inv),
-                                      static_cast<float>(src[1] * inv),
-                                      static_cast<float>(src[2] * inv)};
+      grid->centroid[k] =
+          core::Vec3f{static_cast<float>(src[0] * inv), static_cast<float>(src[1] * inv),
+                      static_cast<float>(src[2] * inv)};
       if (with_color) {
         const float finv = static_cast<float>(inv);
         const core::Vec3f& m = tmp_color_[v];
@@ -338,8 +338,8 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
       const uint64_t first = ckeys[cb];
       for (int r = 0; r < 3; ++r) {
         const uint64_t target = first + (r - 1) * one_x - 1;  // (x + r - 1, y - 1)
-        row_ptr[r] = static_cast<size_t>(
-            std::lower_bound(ckeys, ckeys + num_columns, target) - ckeys);
+        row_ptr[r] =
+            static_cast<size_t>(std::lower_bound(ckeys, ckeys + num_columns, target) - ckeys);
       }
     }
     for (size_t c = cb; c < ce; ++c) {

@@ -52,25 +52,39 @@ bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core
   dz /= dlen;
   const double cos_a =
       std::clamp(double{ni.x} * nj.x + double{ni.y} * nj.y + double{ni.z} * nj.z, -1.0, 1.0);
-  const double angle_deg = std::acos(cos_a) * kRadToDeg;
+  // The normal angle is needed only for concave connections and for the sanity threshold.
+  double angle_deg = -1.0;
+  auto normal_angle_deg = [&]() {
+    if (angle_deg < 0.0) angle_deg = std::acos(static_cast<float>(cos_a)) * kRadToDeg;
+    return angle_deg;
+  };
+
+  // Convexity: (n_i - n_j) . d >= -epsilon, or a concavity shallower than the tolerance.
+  const double convexity =
+      (double{ni.x} - nj.x) * dx + (double{ni.y} - nj.y) * dy + (double{ni.z} - nj.z) * dz;
+  if (convexity < -double{params.convexity_epsilon} &&
+      !(normal_angle_deg() < params.concavity_tolerance_deg)) {
+    return false;
+  }
 
   if (params.use_sanity_criterion) {
-    // s = ni x nj; theta = min(angle(d, s), angle(d, -s)).
+    // s = n_i x n_j; theta = min(angle(d, s), angle(d, -s)); cut when theta is below
+    // 60 / (1 + exp(-0.25 (a - 25))) degrees. That threshold never exceeds 60 degrees, so
+    // connections with theta >= 60 (cos theta <= 0.5) pass without evaluating it.
     const double sx = double{ni.y} * nj.z - double{ni.z} * nj.y;
     const double sy = double{ni.z} * nj.x - double{ni.x} * nj.z;
     const double sz = double{ni.x} * nj.y - double{ni.y} * nj.x;
     const double slen = std::sqrt(sx * sx + sy * sy + sz * sz);
     if (slen > 1e-12) {
       const double c = std::min(1.0, std::fabs(sx * dx + sy * dy + sz * dz) / slen);
-      const double theta_deg = std::acos(c) * kRadToDeg;
-      const double threshold_deg = 60.0 / (1.0 + std::exp(-0.25 * (angle_deg - 25.0)));
-      if (theta_deg < threshold_deg) return false;
+      if (c > 0.5) {
+        const double theta_deg = std::acos(c) * kRadToDeg;
+        const double threshold_deg = 60.0 / (1.0 + std::exp(-0.25 * (normal_angle_deg() - 25.0)));
+        if (theta_deg < threshold_deg) return false;
+      }
     }
   }
-  const double convexity =
-      (double{ni.x} - nj.x) * dx + (double{ni.y} - nj.y) * dy + (double{ni.z} - nj.z) * dz;
-  if (convexity >= -double{params.convexity_epsilon}) return true;
-  return angle_deg < params.concavity_tolerance_deg;
+  return true;
 }
 
 Linkage::Linkage(const LinkageParams& params, core::ThreadPool* pool)

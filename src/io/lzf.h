@@ -17,7 +17,8 @@ inline constexpr size_t kLzfMaxExpansion = 88;
 void LzfCompress(const void* in, size_t size, std::vector<uint8_t>* out);
 
 /// Decompresses the LZF stream `in[0, in_size)` into `out[0, out_capacity)`.
-/// @returns the number of bytes written.
+/// @returns the number of bytes decoded. Bytes of `out` past that count (within
+/// `out_capacity`) may be overwritten too: the decoder copies in fixed-size chunks.
 /// @throws std::runtime_error describing the defect when the stream is truncated, refers back
 /// before the start of the output, or would write past `out_capacity`. Never reads or writes
 /// out of bounds. Thread-safe. O(in_size + returned size).

@@ -8,9 +8,9 @@
 
 namespace clutterseg::io {
 
-/// All functions here are thread-safe (no shared state) and name the file in every error.
-/// Images larger than 16384 px per side, or larger than the file could decompress to, are
-/// refused before their buffers are allocated.
+// All functions here are thread-safe (no shared state) and name the file in every error.
+// Images larger than 16384 px per side, or larger than the file could decompress to, are
+// refused before their buffers are allocated.
 
 /// Reads a 16-bit single-channel PNG of depth values. Values are multiplied by `scale_to_mm`
 /// (1 for millimetre PNGs, 0.2 for TUM's value/5000 m), rounded and clamped to 65535.

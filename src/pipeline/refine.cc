@@ -22,6 +22,24 @@ void Refiner::Union(int32_t a, int32_t b) {
   parent_[a] = b;  // the smaller id is the root: deterministic
 }
 
+bool Refiner::KeepGroup(const ObjectParams& params, const optimize::PlaneLabeling& planes,
+                        int32_t g) const {
+  if (group_points_[g] < static_cast<uint64_t>(params.min_object_points)) return false;
+  if (params.below_support_margin_m <= 0.f) return true;
+  // Segments below a support surface (the table's edge faces and legs, things under the
+  // table) are not objects on it. Support normals point to the camera, so "below" is a
+  // negative signed distance.
+  const double inv = 1.0 / static_cast<double>(group_points_[g]);
+  const core::Vec3f& c = group_centroid_[g];
+  for (size_t p = 0; p < planes.planes.size(); ++p) {
+    if (!support_[p]) continue;
+    const core::Vec3f& nrm = planes.planes[p].normal;
+    const double dist = (nrm.x * c.x + nrm.y * c.y + nrm.z * c.z) * inv + planes.planes[p].d;
+    if (dist < -params.below_support_margin_m) return false;
+  }
+  return true;
+}
+
 uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
                       const core::PointCloud& cloud, const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
                       const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
@@ -84,8 +102,15 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
   }
 
   group_points_.assign(n, 0);
+  group_centroid_.assign(n, core::Vec3f{});
   for (size_t i = 0; i < n; ++i) {
-    if (!background_[i]) group_points_[Find(static_cast<int32_t>(i))] += sv.num_points[i];
+    if (background_[i]) continue;
+    const int32_t g = Find(static_cast<int32_t>(i));
+    const float w = static_cast<float>(sv.num_points[i]);
+    group_points_[g] += sv.num_points[i];
+    group_centroid_[g].x += w * features.centroid[i].x;
+    group_centroid_[g].y += w * features.centroid[i].y;
+    group_centroid_[g].z += w * features.centroid[i].z;
   }
 
   // Label groups in row-major order of their first pixel; drop small ones.
@@ -100,9 +125,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
     }
     const int32_t g = Find(s);
     if (group_label_[g] < 0) {
-      group_label_[g] = group_points_[g] >= static_cast<uint64_t>(params.min_object_points)
-                            ? static_cast<int32_t>(++next)
-                            : 0;
+      group_label_[g] = KeepGroup(params, planes, g) ? static_cast<int32_t>(++next) : 0;
     }
     labels->data[px] = static_cast<uint32_t>(group_label_[g]);
   }

@@ -32,6 +32,8 @@ class Refiner {
 
  private:
   int32_t Find(int32_t x);
+  bool KeepGroup(const ObjectParams& params, const optimize::PlaneLabeling& planes,
+                 int32_t g) const;
   void Union(int32_t a, int32_t b);
 
   std::vector<int32_t> parent_;
@@ -39,6 +41,7 @@ class Refiner {
   std::vector<uint8_t> support_;
   std::vector<double> plane_area_;
   std::vector<uint64_t> group_points_;
+  std::vector<core::Vec3f> group_centroid_;
   std::vector<int32_t> group_label_;
 };
 

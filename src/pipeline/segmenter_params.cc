@@ -21,6 +21,9 @@ void ObjectParams::ValidateOrThrow() const {
   if (!(support_snap_distance_m >= 0.f && support_snap_distance_m < 1.f)) {
     Fail("support_snap_distance_m", support_snap_distance_m, "expected in [0, 1) m");
   }
+  if (!(below_support_margin_m >= 0.f && below_support_margin_m < 10.f)) {
+    Fail("below_support_margin_m", below_support_margin_m, "expected in [0, 10) m");
+  }
   if (!(min_depth_m >= 0.f && std::isfinite(min_depth_m))) {
     Fail("min_depth_m", min_depth_m, "expected >= 0 m");
   }

@@ -14,6 +14,9 @@ struct ObjectParams {
   float support_min_area_m2{0.15f};
   /// Object points closer than this to a support plane become background, metres (0 = off).
   float support_snap_distance_m{0.0f};
+  /// Segments whose centroid lies this far below a support plane (table edges and legs,
+  /// things under the table) are background, metres (0 = keep them).
+  float below_support_margin_m{0.02f};
   float min_depth_m{0.3f};             ///< points nearer than this are ignored, metres
   float max_depth_m{4.0f};             ///< points farther than this are ignored, metres
 

@@ -11,9 +11,11 @@ struct SupervoxelParams {
   float normal_importance{4.0f};      ///< wn
   /// Voxelize in (x/z, y/z, log z) so voxel size grows with depth like the sensor's noise.
   bool use_single_camera_transform{true};
-  int refinement_iterations{2};       ///< re-centre and regrow this many times
+  /// Re-centre and regrow this many times. On the mOSD learn frames 0 gave the same object
+  /// leakage and boundary recall as 2 for about 20% less supervoxelizer time.
+  int refinement_iterations{2};
   /// Seeds whose search volume holds fewer voxels than this fraction of a flat disc's are
-  /// dropped.
+  /// dropped (the disc's voxel count uses the voxel size at the seed's depth).
   float min_seed_occupancy{0.25f};
   /// Voxels farther than this from the camera are ignored, metres (0 = no limit).
   float max_depth_m{0.0f};

@@ -168,8 +168,8 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
                              (static_cast<float>(iz) + 0.5f) * cell};
     const float d = Dist2(c, centre);
     bool inserted = false;
-    const uint32_t slot = cell_map_.FindOrInsert(
-        key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
+    const uint32_t slot =
+        cell_map_.FindOrInsert(key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
     if (inserted) {
       cell_best_voxel_.push_back(static_cast<uint32_t>(v));
       cell_best_dist_.push_back(d);
@@ -185,13 +185,10 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   // graph, against the count a flat disc through that ball would hold.
   const size_t num_candidates = candidates_.size();
   candidate_keep_.assign(num_candidates, 0);
-  const size_t grain =
-      std::max<size_t>(64, (num_candidates + kMaxSeedChunks - 1) / kMaxSeedChunks);
+  const size_t grain = std::max<size_t>(64, (num_candidates + kMaxSeedChunks - 1) / kMaxSeedChunks);
   const size_t num_chunks = core::ThreadPool::NumChunks(num_candidates, grain);
-  if (chunk_marks_.size() < num_chunks) {
-    chunk_marks_.resize(num_chunks);
-    chunk_queue_.resize(num_chunks);
-  }
+  if (chunk_marks_.size() < num_chunks) chunk_marks_.resize(num_chunks);
+  if (chunk_queue_.size() < num_chunks) chunk_queue_.resize(num_chunks);
   for (size_t k = 0; k < num_chunks; ++k) {
     if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
   }
@@ -328,13 +325,12 @@ void Supervoxelizer::Recenter() {
                                  static_cast<float>(a[3] * inv)};
     const double len = std::sqrt(a[4] * a[4] + a[5] * a[5] + a[6] * a[6]);
     if (len > 0.0) {
-      centre_normal_[s] = core::Vec3f{static_cast<float>(a[4] / len),
-                                      static_cast<float>(a[5] / len),
-                                      static_cast<float>(a[6] / len)};
+      centre_normal_[s] =
+          core::Vec3f{static_cast<float>(a[4] / len), static_cast<float>(a[5] / len),
+                      static_cast<float>(a[6] / len)};
     }
     if (use_color_) {
-      centre_color_[s] = core::Vec3f{static_cast<float>(a[7] * inv),
-                                     static_cast<float>(a[8] * inv),
+      centre_color_[s] = core::Vec3f{static_cast<float>(a[7] * inv), static_cast<float>(a[8] * inv),
                                      static_cast<float>(a[9] * inv)};
     }
   }
@@ -461,21 +457,70 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
     }
   });
 
-  // Per-supervoxel point moments, summed over voxels in voxel order.
-  constexpr size_t kStride = 10;
-  accum_.assign(kStride * num_sv, 0.0);
+  // Voxels grouped by supervoxel (counting sort: ascending voxel order inside a group).
+  member_offsets_.assign(num_sv + 1, 0);
+  for (size_t v = 0; v < num_voxels; ++v) ++member_offsets_[static_cast<size_t>(owner_[v]) + 1];
+  for (size_t s = 0; s < num_sv; ++s) member_offsets_[s + 1] += member_offsets_[s];
+  members_.resize(num_voxels);
+  queue_.assign(member_offsets_.begin(), member_offsets_.end() - 1);
   for (size_t v = 0; v < num_voxels; ++v) {
-    double* a = &accum_[kStride * static_cast<size_t>(owner_[v])];
-    const double* ps = &grid_.point_sums[9 * v];
-    a[0] += grid_.num_points[v];
-    for (int k = 0; k < 9; ++k) a[1 + k] += ps[k];
+    members_[queue_[static_cast<size_t>(owner_[v])]++] = static_cast<uint32_t>(v);
   }
+
+  // Per-supervoxel point moments (summed over its voxels in voxel order) and neighbour lists,
+  // per chunk of supervoxels.
+  constexpr size_t kStride = 10;
+  constexpr size_t kSvGrain = 256;
+  accum_.resize(kStride * num_sv);
+  const size_t num_sv_chunks = core::ThreadPool::NumChunks(num_sv, kSvGrain);
+  if (chunk_queue_.size() < num_sv_chunks) chunk_queue_.resize(num_sv_chunks);
+  if (chunk_list_.size() < num_sv_chunks) chunk_list_.resize(num_sv_chunks);
+  nbr_count_.resize(num_sv);
+  ForChunks(pool, num_sv, kSvGrain, [&](size_t b, size_t e) {
+    // last_seen (reusing a chunk's uint32 scratch) holds, per supervoxel, the last s + 1 that
+    // listed it as a neighbour.
+    std::vector<uint32_t>& last_seen = chunk_queue_[b / kSvGrain];
+    std::vector<uint32_t>& list = chunk_list_[b / kSvGrain];
+    last_seen.assign(num_sv, 0);
+    list.clear();
+    for (size_t s = b; s < e; ++s) {
+      double* acc = &accum_[kStride * s];
+      std::fill_n(acc, kStride, 0.0);
+      const size_t list_begin = list.size();
+      for (uint32_t m = member_offsets_[s]; m < member_offsets_[s + 1]; ++m) {
+        const uint32_t v = members_[m];
+        const double* ps = &grid_.point_sums[9 * static_cast<size_t>(v)];
+        acc[0] += grid_.num_points[v];
+        for (int k = 0; k < 9; ++k) acc[1 + k] += ps[k];
+        for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+          const uint32_t t = static_cast<uint32_t>(owner_[grid_.adjacency[a]]);
+          if (t == s || last_seen[t] == s + 1) continue;
+          last_seen[t] = static_cast<uint32_t>(s + 1);
+          list.push_back(t);
+        }
+      }
+      std::sort(list.begin() + static_cast<std::ptrdiff_t>(list_begin), list.end());
+      nbr_count_[s] = static_cast<uint32_t>(list.size() - list_begin);
+    }
+  });
+  out->adjacency_offsets.resize(num_sv + 1);
+  out->adjacency_offsets[0] = 0;
+  for (size_t s = 0; s < num_sv; ++s) {
+    out->adjacency_offsets[s + 1] = out->adjacency_offsets[s] + nbr_count_[s];
+  }
+  out->adjacency.resize(out->adjacency_offsets[num_sv]);
+  for (size_t c = 0; c < num_sv_chunks; ++c) {
+    const std::vector<uint32_t>& list = chunk_list_[c];
+    std::copy(list.begin(), list.end(),
+              out->adjacency.begin() + out->adjacency_offsets[c * kSvGrain]);
+  }
+
   out->centroid.resize(num_sv);
   out->normal.resize(num_sv);
   out->curvature.resize(num_sv);
   out->eigenvalues.resize(num_sv);
   out->num_points.resize(num_sv);
-  ForChunks(pool, num_sv, 256, [&](size_t b, size_t e) {
+  ForChunks(pool, num_sv, kSvGrain, [&](size_t b, size_t e) {
     for (size_t s = b; s < e; ++s) {
       const double* a = &accum_[kStride * s];
       const double inv = 1.0 / a[0];
@@ -511,45 +556,10 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
       }
       const double total = l.sum();
       out->curvature[s] = total > 0.0 ? static_cast<float>(l(0) / total) : 0.f;
-      out->eigenvalues[s] = core::Vec3f{static_cast<float>(l(2)), static_cast<float>(l(1)),
-                                        static_cast<float>(l(0))};
+      out->eigenvalues[s] =
+          core::Vec3f{static_cast<float>(l(2)), static_cast<float>(l(1)), static_cast<float>(l(0))};
     }
   });
-
-  // Supervoxel adjacency from voxel edges whose ends differ.
-  pairs_.clear();
-  for (size_t v = 0; v < num_voxels; ++v) {
-    const uint32_t sv = static_cast<uint32_t>(owner_[v]);
-    uint64_t last = ~uint64_t{0};
-    for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
-      const uint32_t nb = grid_.adjacency[a];
-      if (nb <= v) continue;
-      const uint32_t sn = static_cast<uint32_t>(owner_[nb]);
-      if (sn == sv) continue;
-      const uint64_t key = sv < sn ? (uint64_t{sv} << 32) | sn : (uint64_t{sn} << 32) | sv;
-      if (key == last) continue;
-      last = key;
-      pairs_.push_back(key);
-    }
-  }
-  std::sort(pairs_.begin(), pairs_.end());
-  pairs_.erase(std::unique(pairs_.begin(), pairs_.end()), pairs_.end());
-  out->adjacency_offsets.assign(num_sv + 1, 0);
-  for (uint64_t p : pairs_) {
-    ++out->adjacency_offsets[(p >> 32) + 1];
-    ++out->adjacency_offsets[(p & 0xffffffffu) + 1];
-  }
-  for (size_t s = 0; s < num_sv; ++s) out->adjacency_offsets[s + 1] += out->adjacency_offsets[s];
-  out->adjacency.resize(2 * pairs_.size());
-  // Pairs are sorted by (low, high): each node first receives its lower neighbours (as the
-  // high end, ascending), then its higher ones (as the low end, ascending).
-  queue_.assign(out->adjacency_offsets.begin(), out->adjacency_offsets.end() - 1);
-  for (uint64_t p : pairs_) {
-    const uint32_t lo = static_cast<uint32_t>(p >> 32);
-    const uint32_t hi = static_cast<uint32_t>(p & 0xffffffffu);
-    out->adjacency[queue_[lo]++] = hi;
-    out->adjacency[queue_[hi]++] = lo;
-  }
 }
 
 }  // namespace clutterseg::supervoxel

@@ -31,6 +31,21 @@ struct SupervoxelTimings {
 /// point within range) belongs to a supervoxel, and every supervoxel's voxels form one
 /// connected component of the 26-neighbourhood voxel graph.
 ///
+/// Steps: (1) voxelize, 26-adjacency, voxel normals (geometry::Voxelizer). (2) Seeds: per
+/// occupied seed_resolution_m cell (Euclidean, camera frame) the voxel nearest the cell centre;
+/// kept when the voxels reachable through the voxel graph within seed_resolution_m / 2 number
+/// at least min_seed_occupancy * pi r^2 / s^2, s the voxel edge at the seed's depth; then
+/// moved to the lowest-curvature voxel of its 26-neighbourhood (duplicates merged).
+/// (3) Growth, ceil(1.8 * seed_resolution_m / s_min) layers (s_min the voxel edge at the
+/// nearest seed): every supervoxel in turn expands its last layer; a voxel joins when its
+/// distance D^2 = wc * Dc^2 / 255^2 + ws * Ds^2 / (3 R^2) + wn * (1 - |n . n_c|)^2 to the
+/// supervoxel's centre is lower than that of its current owner (Dc: RGB distance, 0..255 per
+/// channel; Ds: metres; R = seed_resolution_m). (4) refinement_iterations times: centre = mean
+/// of member points and normals (colours), seed = member voxel nearest the centre, regrow.
+/// (5) Voxels cut off from their supervoxel's seed are released; released and unreached
+/// voxels join, layer by layer, the cheapest supervoxel of an already labelled neighbour;
+/// components without any labelled voxel become supervoxels of their own.
+///
 /// Supervoxel ids: seeded supervoxels first, in ascending voxel-key order of their initial
 /// (moved) seed voxel, then supervoxels of voxel components no seed reached, in ascending
 /// voxel-key order of their first voxel.
@@ -107,8 +122,11 @@ class Supervoxelizer {
   std::vector<uint8_t> mark_;
   std::vector<int32_t> pending_;
 
-  // Output.
-  std::vector<uint64_t> pairs_;
+  // Output: voxels grouped by supervoxel, neighbour lists per chunk of supervoxels.
+  std::vector<uint32_t> member_offsets_;
+  std::vector<uint32_t> members_;
+  std::vector<uint32_t> nbr_count_;
+  std::vector<std::vector<uint32_t>> chunk_list_;
 };
 
 }  // namespace clutterseg::supervoxel

@@ -1,14 +1,16 @@
 #include "config/daemon_config.h"
 
-#include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
-
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <regex>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
 #include "tests/testing/test_data.h"
 
@@ -265,6 +267,44 @@ TEST(DaemonConfig, CommandLineOverrides) {
   EXPECT_NE(e.find("'x'"), std::string::npos) << e;
   e = ErrorOf([&] { ApplyOverride("threads", &dut); });
   EXPECT_NE(e.find("key=value"), std::string::npos) << e;
+}
+
+// The key table is written by hand; this catches a parameter added to a params struct
+// without its line in src/config/segmenter_keys.cc.
+TEST(SegmenterKeys, CoverEveryFieldOfTheParamsStructs) {
+  struct Source {
+    const char* file;
+    const char* struct_name;
+    const char* section;
+  };
+  const Source sources[] = {
+      {"src/supervoxel/supervoxel_params.h", "SupervoxelParams", "supervoxel"},
+      {"src/graph/linkage_params.h", "LinkageParams", "linkage"},
+      {"src/optimize/plane_params.h", "PlaneParams", "planes"},
+      {"src/pipeline/segmenter_params.h", "ObjectParams", "objects"},
+  };
+  const std::vector<std::string> all = ConfigKeys();
+  const std::set<std::string> keys(all.begin(), all.end());
+  const std::regex field(R"(^\s*(bool|int|float|double|int32_t|int64_t|uint32_t)\s+(\w+)\s*\{)");
+  for (const Source& src : sources) {
+    std::ifstream in(std::string(CLUTTERSEG_SOURCE_DIR) + "/" + src.file);
+    ASSERT_TRUE(in) << src.file;
+    bool inside = false;
+    int fields = 0;
+    for (std::string line; std::getline(in, line);) {
+      if (line.find(std::string("struct ") + src.struct_name + " {") != std::string::npos) {
+        inside = true;
+      } else if (inside && line.rfind("};", 0) == 0) {
+        break;
+      } else if (std::smatch m; inside && std::regex_search(line, m, field)) {
+        ++fields;
+        const std::string key = std::string("segmenter.") + src.section + "." + m[2].str();
+        EXPECT_TRUE(keys.count(key))
+            << key << " (" << src.file << ") has no line in src/config/segmenter_keys.cc";
+      }
+    }
+    EXPECT_GT(fields, 0) << "no field found in " << src.struct_name;
+  }
 }
 
 }  // namespace

@@ -1,7 +1,5 @@
 #include "core/spsc_ring.h"
 
-#include <gtest/gtest.h>
-
 #include <array>
 #include <atomic>
 #include <chrono>
@@ -10,6 +8,8 @@
 #include <set>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "core/frame_pool.h"
 
@@ -263,8 +263,8 @@ void RunStress(const StressCase& c) {
   EXPECT_EQ(dut.popped(), received);
   EXPECT_EQ(dut.size(), 0u);
   EXPECT_EQ(dut.pushed(), dut.popped() + dut.dropped() + dut.size());
-  std::printf("capacity %zu held %zu: %llu pushed, %llu popped, %llu dropped\n", c.capacity,
-              c.held, static_cast<unsigned long long>(dut.pushed()),
+  std::printf("capacity %zu held %zu: %llu pushed, %llu popped, %llu dropped\n", c.capacity, c.held,
+              static_cast<unsigned long long>(dut.pushed()),
               static_cast<unsigned long long>(dut.popped()),
               static_cast<unsigned long long>(dut.dropped()));
 }

@@ -2,11 +2,12 @@
 #include <signal.h>
 #include <unistd.h>
 
-#include <gtest/gtest.h>
-
 #include <chrono>
+#include <filesystem>
 #include <fstream>
 #include <thread>
+
+#include <gtest/gtest.h>
 
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
@@ -29,8 +30,14 @@ bool Decode(const testutil::LogEvent& ev, T* msg) {
 class DaemonProcess : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    oni_path_ = (testing::ScratchDir("daemon_process_oni") / "mosd5.oni").string();
+    oni_path_ =
+        (testing::ScratchDir("daemon_process_oni_" + std::to_string(getpid())) / "mosd5.oni")
+            .string();
     have_oni_ = testutil::WriteMosdOni(oni_path_, kFrames);
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    std::filesystem::remove_all(std::filesystem::path(oni_path_).parent_path(), ec);
   }
   static constexpr int kFrames = 5;
   static inline std::string oni_path_;
@@ -144,10 +151,9 @@ TEST_F(DaemonProcess, UnroutableMulticastExitsFourWithTheFix) {
   testutil::NetNamespace ns(/*route=*/false);  // lo down, no multicast route
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   std::string err;
-  const int rc = testutil::Run(
-      ns.Exec({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--lcm-url",
-               "udpm://239.255.76.67:7667?ttl=0"}),
-      seconds(60), &err);
+  const int rc = testutil::Run(ns.Exec({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--lcm-url",
+                                        "udpm://239.255.76.67:7667?ttl=0"}),
+                               seconds(60), &err);
   EXPECT_EQ(rc, kExitLcmUnavailable) << err;
   EXPECT_NE(err.find("ip route add 224.0.0.0/4 dev lo"), std::string::npos) << err;
 }
@@ -158,9 +164,9 @@ TEST_F(DaemonProcess, PublishesOverUdpmInAPrivateNamespace) {
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   const auto ready = testing::ScratchDir("daemon_process_udpm") / "ready";
-  testutil::Child sub = testutil::Spawn(ns.Exec(
-      {LCM_UDPM_PEER, "sub", url + "&recv_buf_size=4194304", "CLUTTERSEG_OBJECTS",
-       std::to_string(kFrames), ready.string()}));
+  testutil::Child sub =
+      testutil::Spawn(ns.Exec({LCM_UDPM_PEER, "sub", url + "&recv_buf_size=4194304",
+                               "CLUTTERSEG_OBJECTS", std::to_string(kFrames), ready.string()}));
   ASSERT_GT(sub.pid, 0);
   for (int i = 0; i < 1000 && !std::filesystem::exists(ready); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));

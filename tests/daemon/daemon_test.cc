@@ -1,13 +1,17 @@
 #include "daemon/daemon.h"
 
-#include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
+#include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <thread>
 #include <vector>
+
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
 
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
@@ -59,7 +63,7 @@ struct RunResult {
 };
 
 RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSource> source,
-              const std::function<void(Daemon*)>& during = {}) {
+                    const std::function<void(Daemon*)>& during = {}) {
   LcmBus bus(c.lcm_url);
   RunResult run;
   bus.lcm()->subscribe(c.objects_channel, &Received::OnObjects, &run.got);
@@ -83,8 +87,13 @@ RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSo
 class DaemonOni : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    oni_path_ = (testing::ScratchDir("daemon_oni") / "mosd6.oni").string();
+    oni_path_ =
+        (testing::ScratchDir("daemon_oni_" + std::to_string(getpid())) / "mosd6.oni").string();
     have_oni_ = testutil::WriteMosdOni(oni_path_, kFrames);
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    std::filesystem::remove_all(std::filesystem::path(oni_path_).parent_path(), ec);
   }
   std::unique_ptr<core::FrameSource> OniSource() {
     drivers::OpenNI2SourceOptions o;
@@ -204,16 +213,16 @@ TEST(DaemonScripted, DeviceLossReconnectsWithBackoff) {
   s.total_frames = 6;
   s.disconnect_after = 3;
   s.failed_reopens = 2;
+  std::atomic<int> opens{0};
+  s.opens = &opens;
   config::DaemonConfig c = MemqConfig();
   c.reconnect_backoff_min_s = 0.01;
   c.reconnect_backoff_max_s = 0.02;
   c.publish_labels = false;
-  auto source = std::make_unique<testutil::ScriptedSource>(frames, s);
-  testutil::ScriptedSource* raw = source.get();
-  const RunResult run = RunDaemon(c, std::move(source));
+  const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   EXPECT_EQ(run.stats.reconnect_attempts, 3u);
-  EXPECT_EQ(raw->opens(), 4);  // Start + 2 failures + success
+  EXPECT_EQ(opens.load(), 4);  // Start + 2 failures + success
   ASSERT_EQ(run.got.objects.size(), 6u);
   for (int i = 0; i < 6; ++i) EXPECT_EQ(run.got.objects[static_cast<size_t>(i)].frame_seq, i);
   ASSERT_FALSE(run.got.status.empty());
@@ -251,7 +260,8 @@ TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
   auto source = std::make_unique<testutil::ScriptedSource>(frames, s);
   testutil::ScriptedSource* raw = source.get();
   const RunResult run = RunDaemon(c, std::move(source), [&](Daemon* d) {
-    while (d->stats().frames_published < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    while (d->stats().frames_published < 2)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
     pipeline::SegmenterParams bad = c.segmenter;
     bad.objects.min_object_points = 0;
     EXPECT_THROW(d->UpdateSegmenterParams(bad), std::invalid_argument);
@@ -278,10 +288,12 @@ TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
   config::DaemonConfig c = MemqConfig();
   c.speed = config::Speed::kRealtime;
   c.publish_labels = false;
-  const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s), [](Daemon* d) {
-    while (d->stats().frames_published < 2) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    d->RequestStop();
-  });
+  const RunResult run =
+      RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s), [](Daemon* d) {
+        while (d->stats().frames_published < 2)
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        d->RequestStop();
+      });
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   EXPECT_GE(run.got.objects.size(), 2u);
   EXPECT_EQ(run.stats.frames_published, run.got.objects.size());

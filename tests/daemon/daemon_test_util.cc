@@ -2,14 +2,14 @@
 
 #include <fcntl.h>
 #include <poll.h>
-#include <sys/wait.h>
 #include <unistd.h>
-
-#include <lcm/lcm-cpp.hpp>
 
 #include <atomic>
 #include <cstdlib>
 #include <thread>
+
+#include <lcm/lcm-cpp.hpp>
+#include <sys/wait.h>
 
 #include "core/frame.h"
 #include "drivers/oni/oni_writer.h"
@@ -107,8 +107,7 @@ int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err) {
   return -1;
 }
 
-int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout,
-        std::string* err) {
+int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout, std::string* err) {
   Child c = Spawn(argv);
   return Wait(&c, timeout, err);
 }

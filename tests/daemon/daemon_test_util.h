@@ -4,11 +4,12 @@
 // private network namespaces.
 
 #include <signal.h>
-#include <sys/types.h>
 
 #include <chrono>
 #include <string>
 #include <vector>
+
+#include <sys/types.h>
 
 namespace clutterseg::daemon::testutil {
 
@@ -28,8 +29,7 @@ Child Spawn(const std::vector<std::string>& argv);
 /// signal, or -1 on timeout (the child is then killed). Appends its stderr to `*err`.
 int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err);
 /// Spawn + Wait.
-int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout,
-        std::string* err);
+int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout, std::string* err);
 
 /// One event of an LCM log.
 struct LogEvent {

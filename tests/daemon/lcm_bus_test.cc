@@ -1,16 +1,16 @@
 #include "daemon/lcm_bus.h"
 
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
 #include <unistd.h>
-
-#include <gtest/gtest.h>
-#include <lcm/lcm-cpp.hpp>
 
 #include <chrono>
 #include <filesystem>
 #include <thread>
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <lcm/lcm-cpp.hpp>
+#include <netinet/in.h>
+#include <sys/socket.h>
 
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
@@ -132,9 +132,8 @@ TEST(LcmBus, UdpmBetweenTwoProcessesInAPrivateNamespace) {
   if (!ns.ok()) GTEST_SKIP() << "udpm test skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   const auto ready = testing::ScratchDir("lcm_udpm") / "ready";
-  testutil::Child sub = testutil::Spawn(
-      ns.Exec({LCM_UDPM_PEER, "sub", url + "&recv_buf_size=4194304", "CS_TEST", "40",
-               ready.string()}));
+  testutil::Child sub = testutil::Spawn(ns.Exec(
+      {LCM_UDPM_PEER, "sub", url + "&recv_buf_size=4194304", "CS_TEST", "40", ready.string()}));
   ASSERT_GT(sub.pid, 0);
   for (int i = 0; i < 1000 && !std::filesystem::exists(ready); ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(10));

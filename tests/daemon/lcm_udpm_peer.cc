@@ -2,14 +2,14 @@
 //   lcm_udpm_peer pub URL CHANNEL N          publishes objects_t frame_seq 0..N-1 via LcmBus
 //   lcm_udpm_peer sub URL CHANNEL N READY    creates file READY once subscribed, then exits 0
 //                                            after N distinct in-order messages (1 on timeout)
-#include <lcm/lcm-cpp.hpp>
-
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <string>
 #include <thread>
+
+#include <lcm/lcm-cpp.hpp>
 
 #include "clutterseg/objects_t.hpp"
 #include "daemon/lcm_bus.h"
@@ -71,7 +71,8 @@ int Subscribe(const std::string& url, const std::string& channel, int n, const s
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc >= 5 && std::string(argv[1]) == "pub") return Publish(argv[2], argv[3], std::atoi(argv[4]));
+  if (argc >= 5 && std::string(argv[1]) == "pub")
+    return Publish(argv[2], argv[3], std::atoi(argv[4]));
   if (argc >= 6 && std::string(argv[1]) == "sub") {
     return Subscribe(argv[2], argv[3], std::atoi(argv[4]), argv[5]);
   }

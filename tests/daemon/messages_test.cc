@@ -1,10 +1,10 @@
 #include "daemon/messages.h"
 
-#include <gtest/gtest.h>
-
 #include <cstring>
 #include <stdexcept>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include "clutterseg/intrinsics_t.hpp"
 #include "clutterseg/label_image_t.hpp"
@@ -180,8 +180,8 @@ TEST(LabelImage, EveryCompressionRoundTripsThroughLcm) {
     ASSERT_EQ(decoded.width, 64);
     ASSERT_EQ(decoded.height, 48);
     for (size_t i = 0; i + 1 < labels.data.size(); ++i) {
-      ASSERT_EQ(decoded.data[i], labels.data[i]) << "pixel " << i << " compression "
-                                                  << config::ToString(c);
+      ASSERT_EQ(decoded.data[i], labels.data[i])
+          << "pixel " << i << " compression " << config::ToString(c);
     }
     EXPECT_EQ(decoded.data.back(), 65535u);
   }

@@ -21,12 +21,13 @@ namespace clutterseg::daemon::testutil {
 
 struct Script {
   bool live{true};
-  int period_us{0};            ///< time per Read
-  int total_frames{10};        ///< then kEndOfStream (-1 = endless)
-  int disconnect_after{-1};    ///< kDisconnected once after this many frames
-  int failed_reopens{0};       ///< Open() throws this many times after a disconnect
-  int error_after{-1};         ///< kError after this many frames
-  int gate_after{-1};          ///< Read blocks after this many frames until OpenGate()
+  int period_us{0};                  ///< time per Read
+  int total_frames{10};              ///< then kEndOfStream (-1 = endless)
+  int disconnect_after{-1};          ///< kDisconnected once after this many frames
+  int failed_reopens{0};             ///< Open() throws this many times after a disconnect
+  int error_after{-1};               ///< kError after this many frames
+  int gate_after{-1};                ///< Read blocks after this many frames until OpenGate()
+  std::atomic<int>* opens{nullptr};  ///< counts Open() calls when set (outlives the source)
 };
 
 /// Loads the first `n` mOSD frames (empty when the data is absent).
@@ -51,7 +52,7 @@ class ScriptedSource final : public core::FrameSource {
       : frames_(std::move(frames)), script_(script) {}
 
   void Open() override {
-    ++opens_;
+    if (script_.opens != nullptr) script_.opens->fetch_add(1);
     if (pending_failures_ > 0) {
       --pending_failures_;
       throw std::runtime_error("scripted device not found");
@@ -66,7 +67,8 @@ class ScriptedSource final : public core::FrameSource {
         return core::ReadStatus::kTimeout;
       }
     }
-    if (script_.period_us > 0) std::this_thread::sleep_for(std::chrono::microseconds(script_.period_us));
+    if (script_.period_us > 0)
+      std::this_thread::sleep_for(std::chrono::microseconds(script_.period_us));
     if (script_.total_frames >= 0 && served_ >= script_.total_frames) {
       return core::ReadStatus::kEndOfStream;
     }
@@ -101,7 +103,6 @@ class ScriptedSource final : public core::FrameSource {
     }
     cv_.notify_all();
   }
-  int opens() const { return opens_.load(); }
 
  private:
   std::vector<core::RgbdFrame> frames_;
@@ -110,7 +111,6 @@ class ScriptedSource final : public core::FrameSource {
   bool open_{false};
   bool disconnected_{false};
   int pending_failures_{0};
-  std::atomic<int> opens_{0};
   std::string error_;
   std::mutex mutex_;
   std::condition_variable cv_;

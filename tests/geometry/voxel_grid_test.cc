@@ -223,8 +223,8 @@ TEST(VoxelGrid, PlaneNormalsPointToTheCameraAndMatchThePlane) {
         // Voxels at the border of the image see only half a neighbourhood; still planar.
         const core::Vec3f& g = grid.normal[v];
         const float dot = (g.x * n.x + g.y * n.y + g.z * n.z) / len;
-        const float towards = g.x * grid.centroid[v].x + g.y * grid.centroid[v].y +
-                              g.z * grid.centroid[v].z;
+        const float towards =
+            g.x * grid.centroid[v].x + g.y * grid.centroid[v].y + g.z * grid.centroid[v].z;
         EXPECT_LT(towards, 0.f);
         ++checked;
         if (dot < std::cos(2.0f * 3.14159265f / 180.f)) ++bad;
@@ -258,7 +258,8 @@ TEST(VoxelGrid, ACornerHasHighCurvatureAndTwoNormalFamilies) {
   float max_curvature_at_edge = 0.f;
   for (size_t v = 0; v < grid.size(); ++v) {
     const core::Vec3f& c = grid.centroid[v];
-    if (std::fabs(c.x) < 0.01f) max_curvature_at_edge = std::max(max_curvature_at_edge, grid.curvature[v]);
+    if (std::fabs(c.x) < 0.01f)
+      max_curvature_at_edge = std::max(max_curvature_at_edge, grid.curvature[v]);
     if (std::fabs(c.x) > 0.05f) {
       EXPECT_LT(grid.curvature[v], 1e-3f);
       const float expected_nx = c.x < 0.f ? -0.7071f : 0.7071f;  // towards the camera

@@ -51,6 +51,21 @@ TEST(LzfTest, RepetitiveDataRoundTripsAndCompresses) {
   EXPECT_LT(packed, input.size() / 20) << "repetitive data should compress well";
 }
 
+TEST(LzfTest, EveryShortPeriodRoundTrips) {
+  // Periods below and above the 8- and 16-byte copy widths of the decoder, with the match
+  // running up to the very end of the output buffer.
+  std::mt19937 rng(99);
+  for (size_t period = 1; period <= 40; ++period) {
+    for (size_t size : {period + 3, period + 40, size_t{3000}}) {
+      std::vector<uint8_t> input(size);
+      for (size_t i = 0; i < period && i < size; ++i) input[i] = static_cast<uint8_t>(rng());
+      for (size_t i = period; i < size; ++i) input[i] = input[i - period];
+      size_t packed = 0;
+      EXPECT_EQ(RoundTrip(input, &packed), input) << "period " << period << " size " << size;
+    }
+  }
+}
+
 TEST(LzfTest, FloatPlanesLikePcdRoundTrip) {
   std::vector<float> values(640 * 480);
   for (size_t i = 0; i < values.size(); ++i) {

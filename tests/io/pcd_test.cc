@@ -494,6 +494,33 @@ TEST_F(PcdMalformedTest, CorruptLzfStreams) {
   ExpectFails(with_stream({0x1f, 0x01, 0x02, 0x03}, 200), "runs past the end of the stream");
 }
 
+TEST(PcdReaderTest, DecodesPclScenes) {
+  CLUTTERSEG_REQUIRE_DATA("pcl-scenes/milk_cartoon_all_small_clorox.pcd");
+  const std::filesystem::path dir = testing::DataDir() / "pcl-scenes";
+  // rgba as U4, packed rgb as F4; all organized 640x480 binary_compressed Kinect-class frames.
+  for (const std::filesystem::path& rel :
+       {std::filesystem::path("milk_cartoon_all_small_clorox.pcd"),
+        std::filesystem::path("region_growing_rgb_tutorial.pcd"),
+        std::filesystem::path("table_scene_mug_stereo_textured.pcd")}) {
+    SCOPED_TRACE(rel.string());
+    const core::PointCloud cloud = ReadPcd((dir / rel).string());
+    EXPECT_EQ(cloud.width, 640);
+    EXPECT_EQ(cloud.height, 480);
+    EXPECT_TRUE(cloud.has_color());
+    EXPECT_FALSE(cloud.has_label());
+    const size_t valid = cloud.CountValid();
+    EXPECT_GT(valid, cloud.size() / 4);
+    // Colours are real (not all one value) and opaque.
+    size_t distinct_from_first = 0;
+    for (uint32_t c : cloud.rgba) {
+      EXPECT_EQ(c >> 24, 0xffu);
+      distinct_from_first += c != cloud.rgba[0] ? 1 : 0;
+      if (c >> 24 != 0xffu) break;
+    }
+    EXPECT_GT(distinct_from_first, cloud.size() / 2);
+  }
+}
+
 // Random corruptions of valid files (bit flips, byte overwrites, cuts) must either decode or
 // throw std::runtime_error; anything else (another exception, a crash, a sanitizer report)
 // fails.

@@ -1,11 +1,11 @@
 // Benchmarks of the supervoxelizer on a synthetic 640x480 table scene and, when the io module
 // is built and the shared data is present, on real mOSD frames. Each run reports per-stage
 // wall times (milliseconds, mean over iterations) as counters.
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 #include <filesystem>
 #include <string>
+
+#include <benchmark/benchmark.h>
 
 #include "core/thread_pool.h"
 #include "supervoxel/supervoxelizer.h"
@@ -59,7 +59,11 @@ void BM_SyntheticCameraTransform(benchmark::State& state) {
   RunBench(state, SyntheticFrame(), true);
 }
 void BM_SyntheticEuclidean(benchmark::State& state) { RunBench(state, SyntheticFrame(), false); }
-BENCHMARK(BM_SyntheticCameraTransform)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SyntheticCameraTransform)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_SyntheticEuclidean)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 #ifdef CLUTTERSEG_HAVE_IO
@@ -79,10 +83,9 @@ void RegisterMosd() {
     for (bool transform : {true, false}) {
       const std::string bench_name =
           std::string("BM_Mosd/") + name + (transform ? "/camera_transform" : "/euclidean");
-      benchmark::RegisterBenchmark(bench_name.c_str(),
-                                   [cloud, transform](benchmark::State& s) {
-                                     RunBench(s, *cloud, transform);
-                                   })
+      benchmark::RegisterBenchmark(
+          bench_name.c_str(),
+          [cloud, transform](benchmark::State& s) { RunBench(s, *cloud, transform); })
           ->Arg(1)
           ->Arg(2)
           ->Unit(benchmark::kMillisecond)

@@ -21,7 +21,7 @@ using testing::RenderTableScene;
 using testing::Scene;
 
 Supervoxels Segment(const core::PointCloud& cloud, const SupervoxelParams& params = {},
-                core::ThreadPool* pool = nullptr) {
+                    core::ThreadPool* pool = nullptr) {
   Supervoxelizer dut(params);
   Supervoxels out;
   dut.Compute(cloud, pool, &out);
@@ -133,7 +133,8 @@ TEST(Supervoxelizer, EveryFinitePointIsLabelledOnATableScene) {
       Supervoxelizer dut(params);
       Supervoxels out;
       dut.Compute(scene.cloud, nullptr, &out);
-      SCOPED_TRACE(::testing::Message() << "noise " << noise_mm << " transform " << camera_transform);
+      SCOPED_TRACE(::testing::Message()
+                   << "noise " << noise_mm << " transform " << camera_transform);
       ExpectWellFormed(scene.cloud, out);
       EXPECT_GT(out.size(), 100u);
       EXPECT_GT(dut.num_seeds(), 100u);
@@ -234,7 +235,8 @@ TEST(Supervoxelizer, SupervoxelsDoNotStraddleBoxEdges) {
     const Supervoxels out = Segment(scene.cloud);
     std::vector<std::map<int, int>> hist(out.size());
     for (size_t i = 0; i < scene.cloud.size(); ++i) {
-      if (out.pixel_label[i] >= 0) ++hist[static_cast<size_t>(out.pixel_label[i])][scene.surface[i]];
+      if (out.pixel_label[i] >= 0)
+        ++hist[static_cast<size_t>(out.pixel_label[i])][scene.surface[i]];
     }
     int considered = 0, pure = 0, on_boxes = 0, pure_on_boxes = 0;
     for (const auto& h : hist) {
@@ -357,14 +359,40 @@ TEST(Supervoxelizer, DegenerateCloudsGiveValidTinyResults) {
   core::PointCloud loose;
   loose.width = 5;
   loose.height = 1;
-  loose.xyz = {{0.f, 0.f, 1.f}, {0.001f, 0.f, 1.f}, {0.f, 0.f, -1.f}, {1e9f, 0.f, 1.f},
-               {0.f, 0.f, 50.f}};
+  loose.xyz = {
+      {0.f, 0.f, 1.f}, {0.001f, 0.f, 1.f}, {0.f, 0.f, -1.f}, {1e9f, 0.f, 1.f}, {0.f, 0.f, 50.f}};
   dut.Compute(loose, nullptr, &out);
   ASSERT_EQ(out.pixel_label.size(), 5u);
   EXPECT_EQ(out.pixel_label[0], out.pixel_label[1]);
   EXPECT_GE(out.pixel_label[0], 0);
   EXPECT_GE(out.pixel_label[4], 0);
   EXPECT_EQ(out.pixel_label[2], -1);  // behind the camera: cannot be quantised
+}
+
+TEST(Supervoxelizer, UnseededComponentsBecomeTheirOwnSupervoxels) {
+  // A plane plus stray points far from it and from each other: too sparse to keep a seed,
+  // they must still be labelled, each as its own supervoxel.
+  core::CameraIntrinsics k;
+  core::PointCloud cloud = testing::FrontalPlane(1.0, 0.2, k);
+  const size_t strays[] = {5, 600, 640 * 470 + 3};
+  cloud.xyz[strays[0]] = {-0.5f, -0.4f, 0.9f};
+  cloud.xyz[strays[1]] = {0.5f, -0.4f, 1.1f};
+  // Single voxels are seeds only where a disc of radius seed_resolution / 2 holds few voxels
+  // anyway (far away with the camera transform); at 1.2 m it still needs more than two.
+  cloud.xyz[strays[2]] = {-0.5f, 0.4f, 1.2f};
+  Supervoxelizer dut{SupervoxelParams{}};
+  Supervoxels out;
+  dut.Compute(cloud, nullptr, &out);
+  ExpectWellFormed(cloud, out);
+  EXPECT_EQ(out.size(), dut.num_seeds() + 3);
+  for (size_t i : strays) {
+    const int32_t l = out.pixel_label[i];
+    ASSERT_GE(l, static_cast<int32_t>(dut.num_seeds())) << "stray point joined a seeded supervoxel";
+    EXPECT_EQ(out.num_points[static_cast<size_t>(l)], 1u);
+    EXPECT_EQ(out.adjacency_offsets[l], out.adjacency_offsets[l + 1]);  // isolated
+  }
+  EXPECT_NE(out.pixel_label[strays[0]], out.pixel_label[strays[1]]);
+  EXPECT_NE(out.pixel_label[strays[1]], out.pixel_label[strays[2]]);
 }
 
 TEST(Supervoxelizer, MaxDepthDropsFarPoints) {

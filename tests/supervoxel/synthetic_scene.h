@@ -100,7 +100,8 @@ inline Scene RenderTableScene(const std::vector<Box>& boxes, double camera_back_
       double z_mm = best_t * 1000.0 + (noise_mm > 0.0 ? noise(rng) : 0.0);
       depth.data[i] = static_cast<uint16_t>(std::clamp(std::lround(z_mm), 1l, 65535l));
       scene.surface[i] = best_surface;
-      const uint8_t shade = static_cast<uint8_t>(best_surface == 0 ? 128 : 40 + 30 * (best_surface % 7));
+      const uint8_t shade =
+          static_cast<uint8_t>(best_surface == 0 ? 128 : 40 + 30 * (best_surface % 7));
       color.data[i] = core::Rgb8{shade, static_cast<uint8_t>(255 - shade), 90};
     }
   }

@@ -1,6 +1,8 @@
 #include "tools/pcl_baseline/pcl_baseline.h"
 
+#include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <set>
 #include <stdexcept>

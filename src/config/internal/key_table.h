@@ -67,7 +67,8 @@ struct Key {
 /// A key bound to a field of Root.
 template <typename Root, typename T>
 Key<Root> MakeKey(std::string path, T Root::*field) {
-  return {std::move(path), [field](const std::string& s, Root* r) { r->*field = Codec<T>::Parse(s); },
+  return {std::move(path),
+          [field](const std::string& s, Root* r) { r->*field = Codec<T>::Parse(s); },
           [field](const Root& r) { return Codec<T>::Format(r.*field); }};
 }
 
@@ -81,7 +82,8 @@ Key<Root> MakeKey(std::string path, Sub Root::*sub, T Sub::*field) {
 
 /// A key bound to an enum field, written as one of `names`.
 template <typename Root, typename E>
-Key<Root> MakeEnumKey(std::string path, E Root::*field, std::vector<std::pair<std::string, E>> names) {
+Key<Root> MakeEnumKey(std::string path, E Root::*field,
+                      std::vector<std::pair<std::string, E>> names) {
   auto set = [field, names](const std::string& s, Root* r) {
     std::string choices;
     for (const auto& [name, value] : names) {

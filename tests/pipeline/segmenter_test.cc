@@ -1,0 +1,293 @@
+#include "pipeline/segmenter.h"
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+
+#include <gtest/gtest.h>
+
+#include "core/thread_pool.h"
+#include "eval/metrics.h"
+#include "io/pcd.h"
+#include "pipeline/overlay.h"
+#include "synth/renderer.h"
+#include "synth/scene.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::pipeline {
+namespace {
+
+struct Rendered {
+  synth::Scene scene;
+  core::PointCloud cloud;
+  core::CameraIntrinsics intrinsics;
+};
+
+Rendered Render(const synth::SceneParams& params, uint64_t seed, bool noise = true) {
+  Rendered r;
+  r.scene = synth::GenerateScene(params, seed);
+  synth::RenderedFrame frame;
+  const synth::SensorParams sensor =
+      noise ? synth::SensorParams{} : synth::NoiselessSensorParams();
+  synth::RenderScene(r.scene, params.intrinsics, sensor, seed, &frame);
+  synth::ToPointCloud(frame, &r.cloud);
+  r.intrinsics = params.intrinsics;
+  return r;
+}
+
+eval::FrameMetrics Score(const core::PointCloud& gt, const SegmentationResult& result) {
+  eval::FrameEvaluator evaluator(eval::EvalParams{});
+  eval::FrameMetrics m;
+  evaluator.Evaluate(gt.xyz, gt.label, result.labels.data, &m);
+  return m;
+}
+
+// A tabletop with a few free-standing objects, a clean sensor and no wall.
+synth::SceneParams SimpleParams() {
+  synth::SceneParams p;
+  p.min_objects = 3;
+  p.max_objects = 4;
+  p.stack_probability = 0.0;
+  p.touch_probability = 0.0;
+  p.occlude_probability = 0.0;
+  p.wall_probability = 0.0;
+  p.camera_distance_min_m = 0.8;
+  p.camera_distance_max_m = 1.0;
+  p.object_kinds = {synth::ObjectKind::kBox, synth::ObjectKind::kCan,
+                    synth::ObjectKind::kSphere};
+  return p;
+}
+
+class SegmenterTest : public ::testing::Test {
+ protected:
+  SegmenterParams params_;
+};
+
+TEST_F(SegmenterTest, SeparatesFreeStandingObjectsAndRemovesTheTable) {
+  int checked = 0;
+  for (uint64_t seed : {11u, 12u, 13u}) {
+    const Rendered r = Render(SimpleParams(), seed, /*noise=*/false);
+    Segmenter dut(params_);
+    SegmentationResult result;
+    dut.Process(r.cloud, r.intrinsics, &result);
+    const eval::FrameMetrics m = Score(r.cloud, result);
+    EXPECT_GT(m.wov, 0.85) << "seed " << seed;
+    EXPECT_GT(m.f1, 0.85) << "seed " << seed;
+    EXPECT_EQ(m.under_segmented, 0) << "seed " << seed;
+    // The table is a support plane and its points are background.
+    bool have_support = false;
+    for (const Plane& p : result.planes) have_support |= p.is_support;
+    EXPECT_TRUE(have_support) << "seed " << seed;
+    size_t table_points = 0, table_as_object = 0;
+    for (size_t i = 0; i < r.cloud.size(); ++i) {
+      if (!core::IsValid(r.cloud.xyz[i]) || r.cloud.label[i] != 0) continue;
+      ++table_points;
+      table_as_object += result.labels.data[i] != 0 ? 1 : 0;
+    }
+    ASSERT_GT(table_points, 0u);
+    EXPECT_LT(static_cast<double>(table_as_object) / table_points, 0.02) << "seed " << seed;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3);
+}
+
+TEST_F(SegmenterTest, TouchingAndStackedObjectsComeOutSeparate) {
+  synth::SceneParams p = SimpleParams();
+  p.object_kinds = {synth::ObjectKind::kBox};
+  p.min_objects = 3;
+  p.max_objects = 3;
+  p.touch_probability = 0.5;
+  p.stack_probability = 0.5;
+  int touching_or_stacked = 0;
+  double wov_sum = 0.0;
+  int frames = 0;
+  for (uint64_t seed = 100; seed < 106; ++seed) {
+    const Rendered r = Render(p, seed, /*noise=*/false);
+    for (const synth::SceneObject& o : r.scene.objects) {
+      touching_or_stacked += o.placement == synth::Placement::kTouching ||
+                             o.placement == synth::Placement::kStacked;
+    }
+    Segmenter dut(params_);
+    SegmentationResult result;
+    dut.Process(r.cloud, r.intrinsics, &result);
+    const eval::FrameMetrics m = Score(r.cloud, result);
+    wov_sum += m.wov;
+    ++frames;
+  }
+  ASSERT_GT(touching_or_stacked, 3) << "the scenes must exercise contact";
+  EXPECT_GT(wov_sum / frames, 0.8);
+}
+
+TEST_F(SegmenterTest, ResultIsIdenticalForAnyThreadCount) {
+  const Rendered r = Render(SimpleParams(), 21, /*noise=*/true);
+  SegmentationResult reference;
+  {
+    Segmenter dut(params_);
+    dut.Process(r.cloud, r.intrinsics, &reference);
+  }
+  ASSERT_GT(reference.objects.size(), 0u);
+  for (int threads : {2, 3, 4}) {
+    core::ThreadPool pool(threads);
+    Segmenter dut(params_, &pool);
+    SegmentationResult result;
+    for (int rep = 0; rep < 2; ++rep) {  // buffers reused across frames
+      dut.Process(r.cloud, r.intrinsics, &result);
+      EXPECT_EQ(result.labels.data, reference.labels.data) << threads << " threads";
+      ASSERT_EQ(result.objects.size(), reference.objects.size());
+      for (size_t k = 0; k < result.objects.size(); ++k) {
+        EXPECT_EQ(result.objects[k].num_points, reference.objects[k].num_points);
+        EXPECT_EQ(result.objects[k].centroid.x, reference.objects[k].centroid.x);
+      }
+    }
+  }
+}
+
+TEST_F(SegmenterTest, ObjectGeometryMatchesTheLabelImage) {
+  const Rendered r = Render(SimpleParams(), 31, /*noise=*/false);
+  Segmenter dut(params_);
+  SegmentationResult result;
+  dut.Process(r.cloud, r.intrinsics, &result);
+  ASSERT_GT(result.objects.size(), 0u);
+  std::vector<uint32_t> count(result.objects.size() + 1, 0);
+  for (size_t i = 0; i < result.labels.size(); ++i) {
+    const uint32_t l = result.labels.data[i];
+    ASSERT_LE(l, result.objects.size());
+    if (l > 0) {
+      ASSERT_TRUE(core::IsValid(r.cloud.xyz[i])) << "an invalid pixel carries an object label";
+      ++count[l];
+    }
+  }
+  for (const Object& o : result.objects) {
+    EXPECT_EQ(o.num_points, count[o.id]);
+    EXPECT_GE(o.num_points, static_cast<uint32_t>(params_.objects.min_object_points));
+    // Centroid inside the axis-aligned box; axes orthonormal and right-handed.
+    EXPECT_GE(o.centroid.x, o.aabb_min.x);
+    EXPECT_LE(o.centroid.x, o.aabb_max.x);
+    EXPECT_GE(o.centroid.z, o.aabb_min.z);
+    EXPECT_LE(o.centroid.z, o.aabb_max.z);
+    const core::Vec3f& a = o.obb_axes[0];
+    const core::Vec3f& b = o.obb_axes[1];
+    const core::Vec3f& c = o.obb_axes[2];
+    EXPECT_NEAR(a.x * a.x + a.y * a.y + a.z * a.z, 1.0, 1e-4);
+    EXPECT_NEAR(a.x * b.x + a.y * b.y + a.z * b.z, 0.0, 1e-4);
+    const core::Vec3f cross{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+    EXPECT_NEAR(cross.x * c.x + cross.y * c.y + cross.z * c.z, 1.0, 1e-4);
+    // Oriented box no larger than the axis-aligned one's diagonal.
+    const float diag = std::sqrt(std::pow(o.aabb_max.x - o.aabb_min.x, 2.f) +
+                                 std::pow(o.aabb_max.y - o.aabb_min.y, 2.f) +
+                                 std::pow(o.aabb_max.z - o.aabb_min.z, 2.f));
+    EXPECT_LE(o.obb_extents.x, diag + 1e-4f);
+    // Objects stand on the table: they name it as their support.
+    EXPECT_GE(o.support_plane_id, 0) << "object " << o.id;
+    EXPECT_LE(o.pixel_min_u, o.pixel_max_u);
+  }
+}
+
+core::PointCloud Blank(int w, int h) {
+  core::PointCloud c;
+  c.width = w;
+  c.height = h;
+  c.xyz.assign(static_cast<size_t>(w) * h,
+               core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth});
+  return c;
+}
+
+TEST_F(SegmenterTest, DegenerateFramesGiveValidResults) {
+  Segmenter dut(params_);
+  SegmentationResult result;
+  const core::CameraIntrinsics k;
+
+  core::PointCloud all_invalid = Blank(640, 480);
+  dut.Process(all_invalid, k, &result);
+  EXPECT_TRUE(result.objects.empty());
+  EXPECT_EQ(result.labels.size(), 640u * 480u);
+
+  core::PointCloud one = Blank(640, 480);
+  one.xyz[240 * 640 + 320] = core::Vec3f{0.f, 0.f, 1.f};
+  dut.Process(one, k, &result);
+  EXPECT_TRUE(result.objects.empty());
+
+  core::PointCloud tiny = Blank(1, 1);
+  tiny.xyz[0] = core::Vec3f{0.f, 0.f, 1.f};
+  dut.Process(tiny, k.Scaled(1, 1), &result);
+  EXPECT_EQ(result.labels.size(), 1u);
+  EXPECT_TRUE(result.objects.empty());
+
+  // A flat wall at 1.5 m: one support plane, no object.
+  core::DepthImage wall(640, 480, 1500);
+  core::PointCloud wall_cloud;
+  core::DepthToPointCloud(wall, k, nullptr, &wall_cloud);
+  dut.Process(wall_cloud, k, &result);
+  EXPECT_TRUE(result.objects.empty());
+  ASSERT_FALSE(result.planes.empty());
+  EXPECT_TRUE(result.planes[0].is_support);
+
+  // Uniform random depth noise: no crash, labels within range.
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> depth(400, 4000);
+  core::DepthImage noise(640, 480);
+  for (auto& d : noise.data) d = static_cast<uint16_t>(depth(rng));
+  core::PointCloud noise_cloud;
+  core::DepthToPointCloud(noise, k, nullptr, &noise_cloud);
+  dut.Process(noise_cloud, k, &result);
+  for (uint32_t l : result.labels.data) ASSERT_LE(l, result.objects.size());
+
+  // Then a normal frame again: the reused buffers hold no stale state.
+  const Rendered r = Render(SimpleParams(), 11, /*noise=*/false);
+  dut.Process(r.cloud, r.intrinsics, &result);
+  SegmentationResult fresh;
+  Segmenter other(params_);
+  other.Process(r.cloud, r.intrinsics, &fresh);
+  EXPECT_EQ(result.labels.data, fresh.labels.data);
+}
+
+TEST_F(SegmenterTest, InvalidParametersNameTheKey) {
+  SegmenterParams bad;
+  bad.objects.min_object_points = 0;
+  try {
+    Segmenter dut(bad);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("min_object_points"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(SegmenterTest, RealTabletopFramesReachTheQualityBar) {
+  CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
+  // One frame per category of the learn split: boxes, stacked boxes, occluded, cylinders.
+  double wov = 0.0;
+  int n = 0;
+  Segmenter dut(params_);
+  SegmentationResult result;
+  eval::EvalParams ep;
+  ep.gt_convention = eval::GtConvention::kMosdParts;
+  eval::FrameEvaluator evaluator(ep);
+  for (const char* name : {"learn3.pcd", "learn20.pcd", "learn29.pcd", "learn43.pcd"}) {
+    const core::PointCloud cloud =
+        io::ReadPcd((::clutterseg::testing::DataDir() / "mosd-learn" / name).string());
+    dut.Process(cloud, core::DefaultKinectIntrinsics(), &result);
+    eval::FrameMetrics m;
+    evaluator.Evaluate(cloud.xyz, cloud.label, result.labels.data, &m);
+    EXPECT_GT(m.wov, 0.85) << name;
+    wov += m.wov;
+    ++n;
+  }
+  EXPECT_GT(wov / n, 0.9);
+}
+
+TEST(Overlay, ColoursObjectsAndDimsBackground) {
+  core::LabelImage labels(4, 3, 0u);
+  labels.at(1, 1) = 2;
+  core::ColorImage base(4, 3, core::Rgb8{200, 200, 200});
+  core::ColorImage out;
+  RenderOverlay(labels, &base, &out);
+  EXPECT_EQ(out.at(0, 0).r, 100);  // background halved
+  const core::Rgb8 c = LabelColor(2);
+  EXPECT_EQ(out.at(1, 1).r, c.r);  // a one-pixel object is all border
+  EXPECT_NE(LabelColor(1).r * 65536 + LabelColor(1).g * 256 + LabelColor(1).b,
+            LabelColor(2).r * 65536 + LabelColor(2).g * 256 + LabelColor(2).b);
+}
+
+}  // namespace
+}  // namespace clutterseg::pipeline

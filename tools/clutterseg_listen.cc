@@ -1,0 +1,140 @@
+// clutterseg-listen [--lcm-url URL] [--png DIR] [--count N]
+// Prints every objects_t (and status_t) the daemon publishes; with --png, writes each
+// label_image_t as a colour PNG (one colour per object id).
+#include <signal.h>
+
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "clutterseg/label_image_t.hpp"
+#include "clutterseg/objects_t.hpp"
+#include "clutterseg/status_t.hpp"
+#include "daemon/messages.h"
+#include "io/png_io.h"
+#include "pipeline/overlay.h"
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop.store(true); }
+
+struct Listener {
+  std::string png_dir;
+  int64_t count{0};  // stop after this many objects_t (0 = never)
+  int64_t seen{0};
+  bool count_reached{false};
+  int64_t last_seq{-1};
+  bool quiet_status{false};
+  clutterseg::core::LabelImage labels;
+  clutterseg::core::ColorImage image;
+
+  void OnObjects(const lcm::ReceiveBuffer*, const std::string& channel,
+                 const clutterseg::objects_t* m) {
+    std::printf(
+        "%s frame %lld utime %lld camera %s: %d objects, %d planes, segment %.1f ms, "
+        "capture->publish %.1f ms\n",
+        channel.c_str(), static_cast<long long>(m->frame_seq), static_cast<long long>(m->utime),
+        m->camera_name.c_str(), m->num_objects, m->num_planes, m->times.total_ms,
+        m->capture_to_publish_ms);
+    for (const auto& p : m->planes) {
+      std::printf("  plane %d%s n (%.3f %.3f %.3f) d %.3f m, %d points\n", p.id,
+                  p.is_support ? " [support]" : "", p.normal[0], p.normal[1], p.normal[2], p.d,
+                  p.num_points);
+    }
+    for (const auto& o : m->objects) {
+      std::printf(
+          "  object %d: %d points, centroid (%.3f %.3f %.3f) m, size %.3f x %.3f x "
+          "%.3f m, on plane %d, rgb %d %d %d, confidence %.2f\n",
+          o.id, o.num_points, o.centroid[0], o.centroid[1], o.centroid[2], o.obb_extents[0],
+          o.obb_extents[1], o.obb_extents[2], o.support_plane_id, o.mean_color[0], o.mean_color[1],
+          o.mean_color[2], o.confidence);
+    }
+    std::fflush(stdout);
+    ++seen;
+    // Stop once this frame's label image (published right after) was handled too.
+    if (count > 0 && seen >= count) {
+      count_reached = true;
+      last_seq = m->frame_seq;
+    }
+  }
+
+  void OnLabels(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::label_image_t* m) {
+    if (count_reached && m->frame_seq >= last_seq) g_stop.store(true);
+    if (png_dir.empty()) return;
+    try {
+      clutterseg::daemon::DecodeLabelImage(*m, &labels);
+      clutterseg::pipeline::RenderOverlay(labels, nullptr, &image);
+      char name[64];
+      std::snprintf(name, sizeof(name), "/labels_%06lld.png", static_cast<long long>(m->frame_seq));
+      clutterseg::io::WriteColorPng(png_dir + name, image);
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "clutterseg-listen: frame %lld: %s\n",
+                   static_cast<long long>(m->frame_seq), e.what());
+    }
+  }
+
+  void OnStatus(const lcm::ReceiveBuffer*, const std::string& channel,
+                const clutterseg::status_t* s) {
+    if (quiet_status) return;
+    std::printf(
+        "%s %s: %.1f fps, segment p50 %.1f p99 %.1f ms, capture->publish p50 %.1f p99 "
+        "%.1f ms, queue %d/%d, captured %lld processed %lld dropped %lld, %s%s%s\n",
+        channel.c_str(), s->camera_name.c_str(), s->fps, s->segment_p50_ms, s->segment_p99_ms,
+        s->capture_to_publish_p50_ms, s->capture_to_publish_p99_ms, s->queue_depth,
+        s->queue_capacity, static_cast<long long>(s->frames_captured),
+        static_cast<long long>(s->frames_processed), static_cast<long long>(s->frames_dropped),
+        s->device_state_name.c_str(),
+        s->last_error.empty() ? "" : ", last error: ", s->last_error.c_str());
+    std::fflush(stdout);
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304";
+  std::string objects_channel = "CLUTTERSEG_OBJECTS";
+  std::string labels_channel = "CLUTTERSEG_LABELS";
+  std::string status_channel = "CLUTTERSEG_STATUS";
+  Listener listener;
+  CLI::App app{"clutterseg-listen: print the segmentation published by clutterseg"};
+  app.add_option("--lcm-url", url,
+                 "LCM URL (default udpm with a 4 MB receive buffer for label images; "
+                 "file:///abs/run.lcmlog?speed=0 replays a log)");
+  app.add_option("--png", listener.png_dir, "write each label image as DIR/labels_NNNNNN.png");
+  app.add_option("--count", listener.count, "exit after N objects messages (0 = run until ^C)");
+  app.add_option("--objects-channel", objects_channel, "objects_t channel");
+  app.add_option("--labels-channel", labels_channel, "label_image_t channel");
+  app.add_option("--status-channel", status_channel, "status_t channel");
+  app.add_flag("--no-status", listener.quiet_status, "do not print status_t messages");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e) == 0 ? 0 : 2;
+  }
+  if (!listener.png_dir.empty()) std::filesystem::create_directories(listener.png_dir);
+  lcm::LCM lcm(url);
+  if (!lcm.good()) {
+    std::fprintf(stderr,
+                 "clutterseg-listen: cannot open LCM URL '%s' (udpm needs a multicast route: "
+                 "sudo ip route add 224.0.0.0/4 dev lo)\n",
+                 url.c_str());
+    return 4;
+  }
+  lcm.subscribe(objects_channel, &Listener::OnObjects, &listener);
+  lcm.subscribe(labels_channel, &Listener::OnLabels, &listener);
+  lcm.subscribe(status_channel, &Listener::OnStatus, &listener);
+  signal(SIGINT, OnSignal);
+  signal(SIGTERM, OnSignal);
+  while (!g_stop.load()) {
+    const int n = lcm.handleTimeout(200);
+    if (n < 0) break;                             // end of a file:// log, or an error
+    if (n == 0 && listener.count_reached) break;  // no label image follows
+  }
+  return 0;
+}
