@@ -2,6 +2,11 @@
 // structured-light sensor model, as organized PCD files (x y z rgba label) and optionally
 // depth / colour / label PNGs, plus a manifest (scenes.json).
 //
+// With --oni FILE the rendered depth (mm) and colour frames go into one .oni recording at
+// 30 fps timestamps (frame k at k / 30 s) instead; with --out as well, the ground truth of ONI
+// frame k is written beside it as <out>/frame_<k, 6 digits>.pcd (the replay's frame sequence
+// number), plus the manifest.
+//
 // Exit codes: 0 success, 1 I/O failure, 2 bad arguments.
 
 #include <chrono>
@@ -29,6 +34,10 @@
 #include "synth/scene.h"
 #include "synth/sensor_params.h"
 
+#ifdef CLUTTERSEG_SYNTH_WITH_ONI
+#include "drivers/oni/oni_writer.h"
+#endif
+
 namespace fs = std::filesystem;
 
 namespace clutterseg::synth {
@@ -46,6 +55,7 @@ class UsageError : public std::runtime_error {
 
 struct Options {
   std::string out_dir;
+  std::string oni_path;
   int count{1};
   uint64_t seed{1};
   bool sequence{false};
@@ -53,6 +63,7 @@ struct Options {
   std::string objects;
   bool png{false};
   bool no_noise{false};
+  double noise_correlation_px{-1.0};  // < 0: the sensor default
   int width{640};
   int height{480};
   int threads{1};
@@ -64,6 +75,7 @@ struct FrameRecord {
   std::string name;  // file stem
   int scene_index{0};
   int frame_index{-1};  // -1 outside sequence mode
+  int oni_frame{-1};    // index in the .oni recording, -1 without one
   uint64_t scene_seed{0};
   uint64_t noise_seed{0};
   std::vector<SceneObject> objects;
@@ -71,9 +83,8 @@ struct FrameRecord {
   std::vector<std::pair<std::string, std::string>> files;  // (key, file name)
 };
 
-// Destination of rendered frames. The directory writer below is the only one today; an ONI
-// recording writer (drivers/oni) can implement the same interface behind an `--oni FILE`
-// option without touching the generation loop.
+// Destination of rendered frames: a directory of PCD (and PNG) files, or an .oni recording
+// with an optional directory of ground truth beside it.
 class FrameSink {
  public:
   FrameSink() = default;
@@ -161,6 +172,41 @@ class DirectorySink : public FrameSink {
   core::DepthImage label16_;
 };
 
+#ifdef CLUTTERSEG_SYNTH_WITH_ONI
+constexpr int kOniFps = 30;
+
+// Writes the depth (mm) and colour of every frame into one .oni recording at 30 fps
+// timestamps; forwards the frames to `ground_truth` (when non-null) for the labelled files.
+class OniSink : public FrameSink {
+ public:
+  OniSink(std::string path, std::unique_ptr<FrameSink> ground_truth)
+      : path_(std::move(path)), ground_truth_(std::move(ground_truth)) {}
+
+  void Begin(const core::CameraIntrinsics& k) override {
+    writer_.Open(path_, k.width, k.height, kOniFps, k, /*with_color=*/true);
+    if (ground_truth_) ground_truth_->Begin(k);
+  }
+
+  void Write(const RenderedFrame& frame, FrameRecord* record) override {
+    const int index = writer_.frames_written();
+    const int64_t timestamp_us = static_cast<int64_t>(index) * 1000000 / kOniFps;
+    writer_.WriteFrame(frame.depth, &frame.color, timestamp_us);
+    record->oni_frame = index;
+    if (ground_truth_) ground_truth_->Write(frame, record);
+  }
+
+  void End() override {
+    writer_.Close();
+    if (ground_truth_) ground_truth_->End();
+  }
+
+ private:
+  std::string path_;
+  std::unique_ptr<FrameSink> ground_truth_;
+  drivers::OniWriter writer_;
+};
+#endif
+
 void ParseObjectRange(const std::string& text, SceneParams* params) {
   const size_t colon = text.find(':');
   auto parse_int = [&](const std::string& s) {
@@ -192,6 +238,9 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
   os << "  \"sequence\": " << (opt.sequence ? "true" : "false") << ",\n";
   if (opt.sequence) os << "  \"frames_per_sequence\": " << opt.frames << ",\n";
   os << "  \"noise\": " << (opt.no_noise ? "false" : "true") << ",\n";
+  if (!opt.oni_path.empty()) {
+    os << "  \"oni\": " << JsonString(opt.oni_path) << ",\n  \"oni_fps\": 30,\n";
+  }
   os << "  \"width\": " << k.width << ",\n  \"height\": " << k.height << ",\n";
   if (opt.png) os << "  \"intrinsics\": \"intrinsics.json\",\n";
   os << "  \"scenes\": [";
@@ -200,6 +249,7 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
     os << (r == 0 ? "\n" : ",\n") << "    {\"name\": " << JsonString(rec.name)
        << ", \"scene_index\": " << rec.scene_index;
     if (rec.frame_index >= 0) os << ", \"frame_index\": " << rec.frame_index;
+    if (rec.oni_frame >= 0) os << ", \"oni_frame\": " << rec.oni_frame;
     os << ", \"scene_seed\": " << rec.scene_seed << ", \"noise_seed\": " << rec.noise_seed
        << ", \"object_count\": " << rec.objects.size() << ",\n     \"files\": {";
     for (size_t f = 0; f < rec.files.size(); ++f) {
@@ -225,7 +275,12 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
 int Run(int argc, char** argv) {
   Options opt;
   CLI::App app{"Writes synthetic labelled RGB-D tabletop scenes (organized PCD x y z rgba label)."};
-  app.add_option("--out", opt.out_dir, "output directory (created when missing)")->required();
+  app.add_option("--out", opt.out_dir,
+                 "output directory (created when missing); with --oni: ground truth PCDs "
+                 "frame_NNNNNN.pcd numbered like the recording's frames");
+  app.add_option("--oni", opt.oni_path,
+                 "write the rendered depth (mm) and colour frames as one .oni recording at "
+                 "30 fps instead of scene files");
   app.add_option("--count", opt.count, "number of scenes (sequences with --sequence)")
       ->check(CLI::Range(1, 100000));
   app.add_option("--seed", opt.seed, "random seed; the same seed gives byte-identical files");
@@ -237,6 +292,10 @@ int Run(int argc, char** argv) {
   app.add_flag("--png", opt.png, "also write depth (16-bit mm), colour and label PNGs");
   app.add_flag("--no-noise", opt.no_noise,
                "no random sensor noise or quantisation (shadows and grazing limits stay)");
+  app.add_option("--noise-correlation", opt.noise_correlation_px,
+                 "correlation length of the depth noise in pixels (0 = independent per pixel; "
+                 "default: the sensor model's)")
+      ->check(CLI::Range(0.0, 256.0));
   app.add_option("--width", opt.width, "image width in pixels")->check(CLI::Range(16, 4096));
   app.add_option("--height", opt.height, "image height in pixels")->check(CLI::Range(16, 4096));
   app.add_option("--threads", opt.threads, "render threads (0 = all cores)")
@@ -249,12 +308,19 @@ int Run(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitUsage;
   }
 
+  if (opt.out_dir.empty() && opt.oni_path.empty()) {
+    throw UsageError("one of --out DIR or --oni FILE is required");
+  }
+#ifndef CLUTTERSEG_SYNTH_WITH_ONI
+  if (!opt.oni_path.empty()) throw UsageError("--oni: built without the ONI writer");
+#endif
   SceneParams scene_params;
   if (!opt.objects.empty()) ParseObjectRange(opt.objects, &scene_params);
   const core::CameraIntrinsics intrinsics =
       core::DefaultKinectIntrinsics().Scaled(opt.width, opt.height);
   scene_params.intrinsics = intrinsics;
-  const SensorParams sensor = opt.no_noise ? NoiselessSensorParams() : SensorParams{};
+  SensorParams sensor = opt.no_noise ? NoiselessSensorParams() : SensorParams{};
+  if (opt.noise_correlation_px >= 0.0) sensor.axial_noise_correlation_px = opt.noise_correlation_px;
   try {
     scene_params.ValidateOrThrow();
     sensor.ValidateOrThrow();
@@ -263,12 +329,17 @@ int Run(int argc, char** argv) {
   }
 
   const fs::path dir(opt.out_dir);
-  if (fs::exists(dir) && !fs::is_directory(dir)) {
-    throw std::runtime_error("output path '" + dir.string() + "' exists and is not a directory");
+  std::unique_ptr<FrameSink> sink;
+  if (!opt.out_dir.empty()) {
+    if (fs::exists(dir) && !fs::is_directory(dir)) {
+      throw std::runtime_error("output path '" + dir.string() + "' exists and is not a directory");
+    }
+    fs::create_directories(dir);
+    sink = std::make_unique<DirectorySink>(dir, opt.png);
   }
-  fs::create_directories(dir);
-
-  std::unique_ptr<FrameSink> sink = std::make_unique<DirectorySink>(dir, opt.png);
+#ifdef CLUTTERSEG_SYNTH_WITH_ONI
+  if (!opt.oni_path.empty()) sink = std::make_unique<OniSink>(opt.oni_path, std::move(sink));
+#endif
   core::ThreadPool pool(opt.threads);
   RenderedFrame frame;
   std::vector<FrameRecord> records;
@@ -286,12 +357,15 @@ int Run(int argc, char** argv) {
     for (size_t f = 0; f < scenes.size(); ++f) {
       FrameRecord rec;
       char name[64];
-      if (opt.sequence) {
+      if (!opt.oni_path.empty()) {
+        // Ground truth is named by the frame's index in the recording.
+        std::snprintf(name, sizeof(name), "frame_%06d", rendered);
+      } else if (opt.sequence) {
         std::snprintf(name, sizeof(name), "scene_%04d_frame_%04d", s, static_cast<int>(f));
-        rec.frame_index = static_cast<int>(f);
       } else {
         std::snprintf(name, sizeof(name), "scene_%04d", s);
       }
+      if (opt.sequence) rec.frame_index = static_cast<int>(f);
       rec.name = name;
       rec.scene_index = s;
       rec.scene_seed = scene_seed;
@@ -318,9 +392,12 @@ int Run(int argc, char** argv) {
     }
   }
   sink->End();
-  WriteTextFile(dir / "scenes.json", ManifestJson(opt, intrinsics, records));
+  if (!opt.out_dir.empty()) {
+    WriteTextFile(dir / "scenes.json", ManifestJson(opt, intrinsics, records));
+  }
+  const std::string where = opt.oni_path.empty() ? dir.string() : opt.oni_path;
   std::fprintf(stderr, "clutterseg-synth: wrote %d frame(s) to %s (mean render %.1f ms)\n",
-               rendered, dir.string().c_str(), rendered > 0 ? render_ms_total / rendered : 0.0);
+               rendered, where.c_str(), rendered > 0 ? render_ms_total / rendered : 0.0);
   return kExitOk;
 }
 

@@ -20,9 +20,6 @@ target_link_libraries(clutterseg-pcl-baseline PRIVATE clutterseg_pcl_baseline CL
 target_include_directories(clutterseg-pcl-baseline SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
 
 if(CLUTTERSEG_BUILD_TESTS)
-  # tools/ is added before the top level calls enable_testing(), so enable it here for ctest to
-  # see this directory's tests.
-  enable_testing()
   find_package(GTest REQUIRED)
   include(GoogleTest)
   add_executable(pcl_baseline_test ${CMAKE_CURRENT_LIST_DIR}/pcl_baseline/pcl_baseline_test.cc)

@@ -7,7 +7,6 @@ if(TARGET clutterseg_driver_openni2 AND TARGET clutterseg_driver_replay AND TARG
 endif()
 
 if(TARGET clutterseg-record AND CLUTTERSEG_BUILD_TESTS)
-  enable_testing()  # this directory is added before the top level enables testing
   # Without a camera the live mode must fail cleanly with exit code 1.
   add_test(NAME clutterseg_record.no_device
            COMMAND clutterseg-record ${CMAKE_CURRENT_BINARY_DIR}/no_device.oni --frames 1)

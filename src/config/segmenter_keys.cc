@@ -42,6 +42,8 @@ const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(planes, max_expansion_cycles),
       CLUTTERSEG_SEGMENTER_KEY(planes, normal_mismatch_cost),
       CLUTTERSEG_SEGMENTER_KEY(planes, max_candidate_trials),
+      CLUTTERSEG_SEGMENTER_KEY(planes, seed_neighborhood_m),
+      CLUTTERSEG_SEGMENTER_KEY(planes, accept_largest_first),
       CLUTTERSEG_SEGMENTER_KEY(planes, min_patch_points),
       CLUTTERSEG_SEGMENTER_KEY(planes, refit_iterations),
 

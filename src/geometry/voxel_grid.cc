@@ -21,7 +21,7 @@ constexpr int32_t kOffset = 1 << 20;
 constexpr int32_t kCoordLimit = kOffset - 2;
 constexpr uint64_t kFieldMask = (uint64_t{1} << kFieldBits) - 1;
 constexpr uint64_t kInvalidKey = ~uint64_t{0};
-constexpr size_t kBandPoints = 32768;
+constexpr size_t kBandPoints = 16384;
 constexpr size_t kVoxelGrain = 2048;
 
 // Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
@@ -219,75 +219,75 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     band.size = count;
   });
 
-  // 2. Merge the bands in band order (a fixed summation order for every voxel).
-  size_t expected = 0;
-  for (size_t b = 0; b < num_bands; ++b) expected += bands_[b].size;
-  map_.Clear(expected);
-  size_t num_voxels = 0;
+  // 2. Merge: all band voxels (a key may occur in several bands) sorted by key with a stable
+  // radix sort, so that equal keys stay in band order; each run of equal keys is one voxel,
+  // whose sums are added in band order (a fixed summation order for any pool size).
+  band_offset_.resize(num_bands + 1);
+  band_offset_[0] = 0;
+  for (size_t b = 0; b < num_bands; ++b) band_offset_[b + 1] = band_offset_[b] + bands_[b].size;
+  const size_t num_entries = band_offset_[num_bands];
+  entry_key_.resize(num_entries);
+  entry_band_.resize(num_entries);
   for (size_t b = 0; b < num_bands; ++b) {
     Band& band = bands_[b];
     band.remap.resize(band.size);
-    for (size_t l = 0; l < band.size; ++l) {
-      bool inserted = false;
-      const uint32_t g =
-          map_.FindOrInsert(band.key[l], static_cast<uint32_t>(num_voxels), &inserted);
-      band.remap[l] = g;
-      if (inserted) {
-        if (num_voxels == tmp_key_.size()) {
-          const size_t capacity = std::max<size_t>(4096, 2 * num_voxels);
-          tmp_key_.resize(capacity);
-          tmp_count_.resize(capacity);
-          tmp_sums_.resize(9 * capacity);
-          tmp_color_.resize(capacity);
-        }
-        tmp_key_[g] = band.key[l];
-        tmp_count_[g] = band.count[l];
-        std::copy_n(&band.sums[9 * l], 9, &tmp_sums_[9 * g]);
-        tmp_color_[g] = band.color[l];
-        ++num_voxels;
-      } else {
-        tmp_count_[g] += band.count[l];
-        double* dst = &tmp_sums_[9 * g];
-        const double* src = &band.sums[9 * l];
-        for (int k = 0; k < 9; ++k) dst[k] += src[k];
-        core::Vec3f& m = tmp_color_[g];
-        m.x += band.color[l].x;
-        m.y += band.color[l].y;
-        m.z += band.color[l].z;
-      }
+    std::copy_n(band.key.begin(), band.size, entry_key_.begin() + band_offset_[b]);
+    std::fill_n(entry_band_.begin() + band_offset_[b], band.size, static_cast<uint32_t>(b));
+  }
+  SortByKey(num_entries);
+  grid->key.resize(num_entries);
+  grid->coord.resize(num_entries);
+  grid->num_points.resize(num_entries);
+  grid->point_sums.resize(9 * num_entries);
+  grid->centroid.resize(num_entries);
+  grid->mean_color.resize(with_color ? num_entries : 0);
+  size_t num_voxels = 0;
+  for (size_t k = 0; k < num_entries; ++k) {
+    const uint32_t e = sort_buf_[k].second;
+    const uint32_t b = entry_band_[e];
+    const size_t l = e - band_offset_[b];
+    const Band& band = bands_[b];
+    const uint64_t key = entry_key_[e];
+    if (num_voxels == 0 || grid->key[num_voxels - 1] != key) {
+      grid->key[num_voxels] = key;
+      grid->coord[num_voxels] = UnpackKey(key);
+      grid->num_points[num_voxels] = 0;
+      std::fill_n(&grid->point_sums[9 * num_voxels], 9, 0.0);
+      if (with_color) grid->mean_color[num_voxels] = core::Vec3f{};
+      ++num_voxels;
+    }
+    const size_t v = num_voxels - 1;
+    bands_[b].remap[l] = static_cast<uint32_t>(v);
+    grid->num_points[v] += band.count[l];
+    double* dst = &grid->point_sums[9 * v];
+    const double* src = &band.sums[9 * l];
+    for (int j = 0; j < 9; ++j) dst[j] += src[j];
+    if (with_color) {
+      core::Vec3f& m = grid->mean_color[v];
+      m.x += band.color[l].x;
+      m.y += band.color[l].y;
+      m.z += band.color[l].z;
     }
   }
-
-  // 3. Sort voxels by key (keys are unique, so the order is total) and move their sums.
-  sort_buf_.resize(num_voxels);
-  for (size_t v = 0; v < num_voxels; ++v) sort_buf_[v] = {tmp_key_[v], static_cast<uint32_t>(v)};
-  std::sort(sort_buf_.begin(), sort_buf_.end(),
-            [](const auto& a, const auto& b) { return a.first < b.first; });
-  remap_.resize(num_voxels);
   grid->key.resize(num_voxels);
   grid->coord.resize(num_voxels);
   grid->num_points.resize(num_voxels);
   grid->point_sums.resize(9 * num_voxels);
   grid->centroid.resize(num_voxels);
   grid->mean_color.resize(with_color ? num_voxels : 0);
+
+  // 3. Centroids and mean colours; points get their final voxel index.
   ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
-    for (size_t k = b; k < e; ++k) {
-      const size_t v = sort_buf_[k].second;
-      remap_[v] = static_cast<uint32_t>(k);
-      grid->key[k] = sort_buf_[k].first;
-      grid->coord[k] = UnpackKey(sort_buf_[k].first);
-      const uint32_t count = tmp_count_[v];
-      grid->num_points[k] = count;
-      const double* src = &tmp_sums_[9 * v];
-      std::copy_n(src, 9, &grid->point_sums[9 * k]);
-      const double inv = 1.0 / count;
-      grid->centroid[k] =
+    for (size_t v = b; v < e; ++v) {
+      const double* src = &grid->point_sums[9 * v];
+      const double inv = 1.0 / grid->num_points[v];
+      grid->centroid[v] =
           core::Vec3f{static_cast<float>(src[0] * inv), static_cast<float>(src[1] * inv),
                       static_cast<float>(src[2] * inv)};
       if (with_color) {
         const float finv = static_cast<float>(inv);
-        const core::Vec3f& m = tmp_color_[v];
-        grid->mean_color[k] = core::Vec3f{m.x * finv, m.y * finv, m.z * finv};
+        core::Vec3f& m = grid->mean_color[v];
+        m = core::Vec3f{m.x * finv, m.y * finv, m.z * finv};
       }
     }
   });
@@ -295,13 +295,58 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     const std::vector<uint32_t>& band_remap = bands_[begin / kBandPoints].remap;
     for (size_t i = begin; i < end; ++i) {
       int32_t& vox = grid->point_voxel[i];
-      if (vox >= 0) vox = static_cast<int32_t>(remap_[band_remap[static_cast<size_t>(vox)]]);
+      if (vox >= 0) vox = static_cast<int32_t>(band_remap[static_cast<size_t>(vox)]);
     }
   });
   grid->adjacency_offsets.clear();
   grid->adjacency.clear();
   grid->normal.clear();
   grid->curvature.clear();
+}
+
+void Voxelizer::SortByKey(size_t num_entries) {
+  // LSD radix sort of the keys re-packed densely over their actual coordinate ranges (which
+  // keeps their order): two or three stable passes instead of a comparison sort.
+  sort_buf_.resize(num_entries);
+  sort_tmp_.resize(num_entries);
+  if (num_entries == 0) return;
+  uint64_t lo[3] = {kFieldMask, kFieldMask, kFieldMask};
+  uint64_t hi[3] = {0, 0, 0};
+  for (size_t v = 0; v < num_entries; ++v) {
+    const uint64_t key = entry_key_[v];
+    for (int f = 0; f < 3; ++f) {
+      const uint64_t field = (key >> (kFieldBits * (2 - f))) & kFieldMask;
+      lo[f] = std::min(lo[f], field);
+      hi[f] = std::max(hi[f], field);
+    }
+  }
+  const uint64_t ny = hi[1] - lo[1] + 1, nz = hi[2] - lo[2] + 1;
+  const uint64_t max_dense = ((hi[0] - lo[0]) * ny + (hi[1] - lo[1])) * nz + (hi[2] - lo[2]);
+  for (size_t v = 0; v < num_entries; ++v) {
+    const uint64_t key = entry_key_[v];
+    const uint64_t x = ((key >> (2 * kFieldBits)) & kFieldMask) - lo[0];
+    const uint64_t y = ((key >> kFieldBits) & kFieldMask) - lo[1];
+    const uint64_t z = (key & kFieldMask) - lo[2];
+    sort_buf_[v] = {(x * ny + y) * nz + z, static_cast<uint32_t>(v)};
+  }
+  constexpr int kDigitBits = 11;
+  constexpr size_t kBuckets = size_t{1} << kDigitBits;
+  size_t count[kBuckets];
+  for (int shift = 0; shift < 64 && (max_dense >> shift) != 0; shift += kDigitBits) {
+    std::fill_n(count, kBuckets, 0);
+    for (size_t v = 0; v < num_entries; ++v)
+      ++count[(sort_buf_[v].first >> shift) & (kBuckets - 1)];
+    size_t sum = 0;
+    for (size_t d = 0; d < kBuckets; ++d) {
+      const size_t c = count[d];
+      count[d] = sum;
+      sum += c;
+    }
+    for (size_t v = 0; v < num_entries; ++v) {
+      sort_tmp_[count[(sort_buf_[v].first >> shift) & (kBuckets - 1)]++] = sort_buf_[v];
+    }
+    sort_buf_.swap(sort_tmp_);
+  }
 }
 
 void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {

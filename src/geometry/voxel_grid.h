@@ -43,8 +43,8 @@ struct VoxelCoord {
 /// (x, then y, then z: lexicographic order of the integer coordinates), so that each column
 /// of voxels sharing (x, y) is a contiguous run sorted by z. (Lexicographic rather than Morton
 /// order because it turns the 26-neighbour search into a linear sweep over columns, which
-/// profiled at about a quarter of the cycles of 26 hash lookups per voxel.) All per-voxel arrays have size() entries.
-/// Positions are metres in the camera frame whatever space was quantised.
+/// profiled at about a quarter of the cycles of 26 hash lookups per voxel.) All per-voxel arrays
+/// have size() entries. Positions are metres in the camera frame whatever space was quantised.
 struct VoxelGrid {
   int width{0};   ///< of the source cloud
   int height{0};  ///< of the source cloud
@@ -100,7 +100,7 @@ class Voxelizer {
 
   /// Quantises the valid points of `cloud` (organized or not; colour averaged when present and
   /// compute_mean_color) and fills the voxel fields of `grid` (not adjacency or normals).
-  /// O(points + V log V). For organized clouds a point reuses the voxel of its left or upper
+  /// O(points + V). For organized clouds a point reuses the voxel of its left or upper
   /// pixel when their keys match, so only about one point in six needs a hash lookup.
   void Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid);
   /// Fills the 26-neighbourhood CSR of a voxelized grid by a linear sweep over the voxel
@@ -120,6 +120,8 @@ class Voxelizer {
   float VoxelSizeAt(float z_m) const;
 
  private:
+  void SortByKey(size_t num_entries);  // fills sort_buf_ from entry_key_
+
   // Voxels of one band of points, in first-occurrence order, with their sums.
   struct Band {
     internal::KeyIndexMap map;
@@ -133,15 +135,13 @@ class Voxelizer {
 
   const VoxelGridParams params_;
   std::vector<Band> bands_;
-  internal::KeyIndexMap map_;
   std::vector<uint64_t> pixel_key_;
-  // Merged voxels in first-occurrence order during Voxelize, with their sums.
-  std::vector<uint64_t> tmp_key_;
-  std::vector<uint32_t> tmp_count_;
-  std::vector<double> tmp_sums_;
-  std::vector<core::Vec3f> tmp_color_;
-  std::vector<std::pair<uint64_t, uint32_t>> sort_buf_;
-  std::vector<uint32_t> remap_;
+  // Voxels of all bands, concatenated in band order, for the merge.
+  std::vector<size_t> band_offset_;
+  std::vector<uint64_t> entry_key_;
+  std::vector<uint32_t> entry_band_;
+  std::vector<std::pair<uint64_t, uint32_t>> sort_buf_;  // (dense key, entry)
+  std::vector<std::pair<uint64_t, uint32_t>> sort_tmp_;
   // Columns of voxels sharing (x, y): packed (x, y) and first voxel; one extra end entry.
   std::vector<uint64_t> column_key_;
   std::vector<uint32_t> column_begin_;

@@ -4,7 +4,9 @@ namespace clutterseg::graph {
 
 /// Parameters of local area linkage and convexity (docs/method.md sections 2-3).
 struct LinkageParams {
-  float concavity_tolerance_deg{10.0f};  ///< below this normal angle an edge counts as convex
+  /// Below this normal angle a concave edge still counts as convex, degrees (LCCP and the
+  /// paper: 10; 35 measured best, docs/method.md).
+  float concavity_tolerance_deg{35.0f};
   bool use_sanity_criterion{true};       ///< LCCP's sanity check on the connection direction
   bool use_extended_convexity{false};    ///< an edge is convex only if common neighbours agree
   /// With extended convexity: a convex edge stays convex only when at least this many common
@@ -12,7 +14,8 @@ struct LinkageParams {
   /// then cut).
   int extended_convexity_k{1};
   bool use_type_filter{true};      ///< the LAL majority filter on patch types
-  bool cut_on_type_change{true};   ///< cut edges whose (filtered) patch types differ
+  /// Cut edges whose (filtered) patch types differ (the paper: true; false measured best).
+  bool cut_on_type_change{false};
   float convexity_epsilon{0.0f};   ///< slack on (n_i - n_j) . d > 0, dimensionless
   int min_segment_supervoxels{1};  ///< smaller components merge into a neighbour
 

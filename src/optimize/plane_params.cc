@@ -43,6 +43,7 @@ void PlaneParams::ValidateOrThrow() const {
   CheckAtLeast("max_expansion_cycles", max_expansion_cycles, 0);
   CheckNonNegative("normal_mismatch_cost", normal_mismatch_cost);
   CheckAtLeast("max_candidate_trials", max_candidate_trials, 0);
+  CheckNonNegative("seed_neighborhood_m", seed_neighborhood_m);
   CheckAtLeast("min_patch_points", min_patch_points, 3);
   CheckAtLeast("refit_iterations", refit_iterations, 0);
 }

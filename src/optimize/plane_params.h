@@ -12,10 +12,10 @@ namespace clutterseg::optimize {
 /// adjacent pair with different labels costs `smoothness_weight`. With the defaults the
 /// data term of a patch near a plane lies in [0, 2] and the feature term in [0, 1].
 struct PlaneParams {
-  float inlier_distance_m{0.015f};    ///< rho: patch centroid to plane distance, metres
-  float inlier_angle_deg{15.0f};      ///< normal compatibility of an inlier patch
+  float inlier_distance_m{0.008f};    ///< rho: patch centroid to plane distance, metres
+  float inlier_angle_deg{30.0f};      ///< normal compatibility of an inlier patch
   int min_inlier_patches{50};         ///< kappa (paper 50), in supervoxels
-  float max_seed_curvature{0.01f};    ///< candidate patches must be flatter than this
+  float max_seed_curvature{0.05f};    ///< candidate patches must be flatter than this
   int max_planes{8};                  ///< stop after this many accepted planes
   float duplicate_angle_deg{5.0f};    ///< a candidate this close to an accepted plane ...
   float duplicate_distance_m{0.02f};  ///< ... and this near it is a duplicate
@@ -28,7 +28,13 @@ struct PlaneParams {
   float normal_mismatch_cost{2.0f};
   /// At most this many seed patches are tried as plane candidates (bounds the O(N) inlier
   /// search per candidate).
-  int max_candidate_trials{64};
+  int max_candidate_trials{500};
+  /// Radius around a seed patch whose patches give the candidate's initial plane, metres
+  /// (0 = the seed patch's own plane, as the paper).
+  float seed_neighborhood_m{0.1f};
+  /// Accept candidate planes largest first (true) or in the order of their seeds' flatness
+  /// (false, the paper's greedy order).
+  bool accept_largest_first{true};
   /// Patches with fewer points take no part in plane fitting (they are still labelled).
   int min_patch_points{3};
   /// Refit iterations: inliers are re-collected with the refitted plane this many times.

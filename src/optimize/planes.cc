@@ -63,15 +63,28 @@ PlaneLabeler::PlaneLabeler(const PlaneParams& params) : params_(params) {
 
 void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
                                   std::vector<uint32_t>* inliers) const {
+  CollectInliers(f, normal, d, 1.f, nullptr, 0.f, inliers);
+}
+
+void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
+                                  float tolerance_scale, const core::Vec3f* center,
+                                  float radius_m, std::vector<uint32_t>* inliers) const {
   inliers->clear();
-  const float rho = params_.inlier_distance_m;
-  const float min_cos = static_cast<float>(std::cos(params_.inlier_angle_deg * kDegToRad));
+  const float rho = params_.inlier_distance_m * tolerance_scale;
+  const float min_cos = static_cast<float>(
+      std::cos(std::min(89.0, double{params_.inlier_angle_deg} * tolerance_scale) * kDegToRad));
   const auto min_points = static_cast<uint32_t>(params_.min_patch_points);
+  const float r2 = radius_m * radius_m;
   const size_t n = f.size();
   for (size_t i = 0; i < n; ++i) {
     if (f.num_points[i] < min_points) continue;
     if (std::fabs(Dot(normal, f.centroid[i]) + d) > rho) continue;
     if (Dot(normal, f.normal[i]) < min_cos) continue;
+    if (center != nullptr) {
+      const float dx = f.centroid[i].x - center->x, dy = f.centroid[i].y - center->y,
+                  dz = f.centroid[i].z - center->z;
+      if (dx * dx + dy * dy + dz * dz > r2) continue;
+    }
     inliers->push_back(static_cast<uint32_t>(i));
   }
 }
@@ -92,46 +105,70 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
   covered_.assign(n, 0);
   const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
   const auto min_inliers = static_cast<size_t>(params_.min_inlier_patches);
+
+  // Phase 1: grow a refitted candidate from each uncovered seed, flattest seeds first. A
+  // candidate's inliers are covered, so each surface is tried about once.
+  candidates_.clear();
   int trials = 0;
   for (uint32_t seed : seeds_) {
-    if (static_cast<int>(planes->size()) >= params_.max_planes ||
-        trials >= params_.max_candidate_trials) {
-      break;
-    }
+    if (trials >= params_.max_candidate_trials) break;
     if (covered_[seed]) continue;
     ++trials;
     core::Vec3f normal = f.normal[seed];
     float d = -Dot(normal, f.centroid[seed]);
+    uint32_t points = 0;
+    // A single patch's normal is noisy: first fit the plane to the seed's neighbourhood
+    // (looser tolerances, within seed_neighborhood_m), then collect inliers globally.
+    if (params_.seed_neighborhood_m > 0.f) {
+      CollectInliers(f, normal, d, 2.f, &f.centroid[seed], params_.seed_neighborhood_m,
+                     &inliers_);
+      if (inliers_.size() >= 3) internal::FitPlane(f, inliers_, &normal, &d, &points);
+    }
     CollectInliers(f, normal, d, &inliers_);
     if (inliers_.size() < min_inliers) continue;
-    uint32_t points = 0;
     bool ok = true;
     for (int it = 0; it <= params_.refit_iterations && ok; ++it) {
       ok = internal::FitPlane(f, inliers_, &normal, &d, &points);
       if (ok && it < params_.refit_iterations) CollectInliers(f, normal, d, &inliers_);
     }
     if (!ok || inliers_.size() < min_inliers) continue;
+    double sx = 0, sy = 0, sz = 0, sn = 0;
+    for (uint32_t i : inliers_) {
+      covered_[i] = 1;
+      sx += double{f.centroid[i].x} * f.num_points[i];
+      sy += double{f.centroid[i].y} * f.num_points[i];
+      sz += double{f.centroid[i].z} * f.num_points[i];
+      sn += f.num_points[i];
+    }
+    Candidate c;
+    c.model = PlaneModel{normal, d, points, static_cast<uint32_t>(inliers_.size())};
+    c.inlier_centroid = core::Vec3f{static_cast<float>(sx / sn), static_cast<float>(sy / sn),
+                                    static_cast<float>(sz / sn)};
+    candidates_.push_back(c);
+  }
+
+  // Phase 2: accept the largest candidates first (by inlier points; with
+  // accept_largest_first off, in seed order as the paper), skipping duplicates of
+  // accepted planes. Accepting in order of flatness instead lets many small, perfectly flat
+  // surfaces (e.g. the depth-quantisation terraces of far background) use up max_planes
+  // before the table is reached.
+  if (params_.accept_largest_first) {
+    std::stable_sort(candidates_.begin(), candidates_.end(),
+                     [](const Candidate& a, const Candidate& b) {
+                       return a.model.num_points > b.model.num_points;
+                     });
+  }
+  for (const Candidate& c : candidates_) {
+    if (static_cast<int>(planes->size()) >= params_.max_planes) break;
     bool duplicate = false;
     for (const PlaneModel& q : *planes) {
-      if (Dot(q.normal, normal) < dup_cos) continue;
-      // Distance of this plane's inlier centroid (the point of the plane closest to it) to q.
-      double sx = 0, sy = 0, sz = 0, sn = 0;
-      for (uint32_t i : inliers_) {
-        sx += double{f.centroid[i].x} * f.num_points[i];
-        sy += double{f.centroid[i].y} * f.num_points[i];
-        sz += double{f.centroid[i].z} * f.num_points[i];
-        sn += f.num_points[i];
-      }
-      const core::Vec3f m{static_cast<float>(sx / sn), static_cast<float>(sy / sn),
-                          static_cast<float>(sz / sn)};
-      if (std::fabs(Dot(q.normal, m) + q.d) < params_.duplicate_distance_m) {
+      if (Dot(q.normal, c.model.normal) >= dup_cos &&
+          std::fabs(Dot(q.normal, c.inlier_centroid) + q.d) < params_.duplicate_distance_m) {
         duplicate = true;
         break;
       }
     }
-    for (uint32_t i : inliers_) covered_[i] = 1;
-    if (duplicate) continue;
-    planes->push_back(PlaneModel{normal, d, points, static_cast<uint32_t>(inliers_.size())});
+    if (!duplicate) planes->push_back(c.model);
   }
 }
 

@@ -48,8 +48,10 @@ class PlaneLabeler {
   void Compute(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
                PlaneLabeling* out);
 
-  /// Plane hypotheses only: greedily accepted and refitted planes, most planar seed first;
-  /// num_points / num_patches count the inliers of the final refit.
+  /// Plane hypotheses only: candidates grown and refitted from the flattest uncovered seed
+  /// patches (at most max_candidate_trials), then accepted largest first (by inlier points)
+  /// unless they duplicate an accepted plane, up to max_planes; num_points / num_patches
+  /// count the inliers of the final refit.
   void FindPlanes(const graph::PatchFeatures& features, std::vector<PlaneModel>* planes);
 
   const PlaneParams& params() const { return params_; }
@@ -58,9 +60,19 @@ class PlaneLabeler {
   // Collects patches within rho of the plane and with a compatible normal.
   void CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
                       std::vector<uint32_t>* inliers) const;
+  // Same with the distance and angle tolerances scaled by `tolerance_scale`, restricted to
+  // patches within `radius_m` of `center` when `center` is not null.
+  void CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
+                      float tolerance_scale, const core::Vec3f* center, float radius_m,
+                      std::vector<uint32_t>* inliers) const;
 
   const PlaneParams params_;
   AlphaExpansion expansion_;
+  struct Candidate {
+    PlaneModel model;
+    core::Vec3f inlier_centroid;  // point-weighted mean of the inlier patch centroids
+  };
+  std::vector<Candidate> candidates_;
   std::vector<PlaneModel> hypotheses_;
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;

@@ -16,9 +16,9 @@ struct ObjectParams {
   float support_snap_distance_m{0.0f};
   /// Segments whose centroid lies this far below a support plane (table edges and legs,
   /// things under the table) are background, metres (0 = keep them).
-  float below_support_margin_m{0.02f};
+  float below_support_margin_m{0.005f};
   float min_depth_m{0.3f};             ///< points nearer than this are ignored, metres
-  float max_depth_m{4.0f};             ///< points farther than this are ignored, metres
+  float max_depth_m{3.0f};             ///< points farther than this are ignored, metres
 
   /// @throws std::invalid_argument naming the key and value.
   void ValidateOrThrow() const;

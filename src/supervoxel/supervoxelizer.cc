@@ -168,14 +168,14 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
                              (static_cast<float>(iz) + 0.5f) * cell};
     const float d = Dist2(c, centre);
     bool inserted = false;
-    const uint32_t slot =
+    const uint32_t cell_index =
         cell_map_.FindOrInsert(key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
     if (inserted) {
       cell_best_voxel_.push_back(static_cast<uint32_t>(v));
       cell_best_dist_.push_back(d);
-    } else if (d < cell_best_dist_[slot]) {
-      cell_best_voxel_[slot] = static_cast<uint32_t>(v);
-      cell_best_dist_[slot] = d;
+    } else if (d < cell_best_dist_[cell_index]) {
+      cell_best_voxel_[cell_index] = static_cast<uint32_t>(v);
+      cell_best_dist_[cell_index] = d;
     }
   }
   candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());
@@ -244,12 +244,11 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
 
 void Supervoxelizer::Grow(int max_layers) {
   const size_t num_voxels = grid_.size();
-  owner_.assign(num_voxels, -1);
-  cost_.assign(num_voxels, kInf);
+  claim_.assign(num_voxels, Claim{-1, kInf});
+  Claim* claim = claim_.data();
   frontier_.clear();
   for (size_t s = 0; s < seed_.size(); ++s) {
-    owner_[seed_[s]] = static_cast<int32_t>(s);
-    cost_[seed_[s]] = 0.f;
+    claim[seed_[s]] = Claim{static_cast<int32_t>(s), 0.f};
     frontier_.emplace_back(static_cast<uint32_t>(s), seed_[s]);
   }
   // One layer at a time, all supervoxels in turn (the frontier stays grouped by supervoxel in
@@ -258,21 +257,19 @@ void Supervoxelizer::Grow(int max_layers) {
   const uint32_t* offsets = grid_.adjacency_offsets.data();
   const uint32_t* adjacency = grid_.adjacency.data();
   const VoxelFeature* feature = feature_.data();
-  int32_t* owner = owner_.data();
-  float* cost = cost_.data();
   const float ws = spatial_weight_;
   const float wn = params_.normal_importance;
   for (int layer = 0; layer < max_layers && !frontier_.empty(); ++layer) {
     next_frontier_.clear();
     for (const auto& [s, v] : frontier_) {
       const int32_t label = static_cast<int32_t>(s);
-      if (owner[v] != label) continue;
+      if (claim[v].owner != label) continue;
       const core::Vec3f cx = centre_xyz_[s];
       const core::Vec3f cn = centre_normal_[s];
       for (uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
         const uint32_t n = adjacency[a];
-        const int32_t o = owner[n];
-        if (o == label) continue;
+        Claim& cl = claim[n];
+        if (cl.owner == label) continue;
         float c;
         if (use_color_) {
           c = Cost(s, n);
@@ -281,14 +278,16 @@ void Supervoxelizer::Grow(int max_layers) {
           const float dn = 1.f - std::fabs(Dot(f.normal, cn));
           c = ws * Dist2(f.centroid, cx) + wn * dn * dn;
         }
-        if (o >= 0 && cost[n] <= c) continue;
-        owner[n] = label;
-        cost[n] = c;
+        // Unclaimed voxels cost infinity, so one comparison covers both cases.
+        if (cl.cost <= c) continue;
+        cl = Claim{label, c};
         next_frontier_.emplace_back(s, n);
       }
     }
     frontier_.swap(next_frontier_);
   }
+  owner_.resize(num_voxels);
+  for (size_t v = 0; v < num_voxels; ++v) owner_[v] = claim[v].owner;
 }
 
 void Supervoxelizer::Recenter() {

@@ -112,8 +112,12 @@ class Supervoxelizer {
   std::vector<core::Vec3f> centre_normal_;
   std::vector<core::Vec3f> centre_color_;
   std::vector<VoxelFeature> feature_;
+  struct Claim {
+    int32_t owner;  // supervoxel, -1 = none
+    float cost;     // its distance D^2, infinity when unclaimed
+  };
+  std::vector<Claim> claim_;
   std::vector<int32_t> owner_;
-  std::vector<float> cost_;
   std::vector<std::pair<uint32_t, uint32_t>> frontier_;
   std::vector<std::pair<uint32_t, uint32_t>> next_frontier_;
   std::vector<double> accum_;

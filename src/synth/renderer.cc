@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/assert.h"
+#include "synth/internal/noise_field.h"
 #include "synth/internal/random.h"
 #include "synth/internal/ray_cast.h"
 
@@ -15,7 +16,6 @@ namespace clutterseg::synth {
 namespace {
 
 using internal::FastGaussianFromBits;
-using internal::GaussianFromBits;
 using internal::PreparedPrimitive;
 using internal::TileBins;
 using internal::ToUnit;
@@ -32,8 +32,6 @@ enum Stream : uint64_t {
   kLateralV,
   kDropout,
   kEdgeCluster,
-  kAxial1,
-  kAxial2,
   kColor = 16,  // + channel
 };
 
@@ -50,6 +48,8 @@ struct Context {
   TileBins camera_bins;
   TileBins projector_bins;
   double cos_max_incidence;
+  /// Unit-variance spatially correlated axial noise per pixel (empty without axial noise).
+  std::vector<float> axial_field;
 };
 
 // Nearest hit along origin + t * dir among the candidates; returns the prepared index or -1.
@@ -259,13 +259,13 @@ void MeasureRows(const Context& ctx, int v0, int v1, RenderedFrame* out) {
       if (sp.axial_noise || step > 0.0) {
         double disparity = fb / z;
         if (sp.axial_noise) {
-          // The Gaussian part plus the quantisation error give the configured total sigma.
+          // The Gaussian part plus the quantisation error give the configured total sigma. The
+          // Gaussian part is a smooth field over the image (block matching correlates the
+          // disparity errors of neighbouring pixels); quantising it makes terraces.
           const double sigma = sp.AxialSigmaM(z);
           const double q = step * z * z / fb;  // quantisation step in depth
           const double sigma_g = std::sqrt(std::max(sigma * sigma - q * q / 12.0, 0.0));
-          disparity +=
-              sigma_g * fb / (z * z) *
-              GaussianFromBits(StreamBits(pixel_hash, kAxial1), StreamBits(pixel_hash, kAxial2));
+          disparity += sigma_g * fb / (z * z) * ctx.axial_field[i];
         }
         if (step > 0.0) disparity = std::round(disparity / step) * step;
         if (!(disparity > 0.0)) continue;
@@ -331,6 +331,10 @@ void RenderScene(const Scene& scene, const core::CameraIntrinsics& intrinsics,
   out->true_depth_m.Reset(w, h, 0.f);
   out->true_label.Reset(w, h, 0);
   out->status.Reset(w, h, 0);
+  if (sensor.axial_noise) {
+    internal::CorrelatedGaussianField(ctx.seed, w, h, sensor.axial_noise_correlation_px,
+                                      &ctx.axial_field, pool);
+  }
   ParallelRows(pool, h, [&](int v0, int v1) { RenderGeometryRows(ctx, v0, v1, out); });
   ParallelRows(pool, h, [&](int v0, int v1) { MeasureRows(ctx, v0, v1, out); });
   // Pixels that were geometrically valid but lost their measurement were dropped.

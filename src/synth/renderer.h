@@ -40,9 +40,10 @@ struct RenderedFrame {
 };
 
 /// Ray casts `scene` through a pinhole camera at scene.camera_pose and applies the sensor
-/// model. `out`'s buffers are reused. Per-pixel randomness comes from a counter-based hash of
-/// (noise_seed, pixel), so the output is identical for any `pool` (nullptr = calling thread)
-/// and thread count.
+/// model. `out`'s buffers are reused. Randomness comes from counter-based hashes of
+/// (noise_seed, pixel) and, for the spatially correlated axial noise, (noise_seed, noise grid
+/// cell), so the output is identical for any `pool` (nullptr = calling thread) and thread
+/// count.
 /// Thread-safety: reentrant; `out` must not be shared between concurrent calls.
 /// Complexity: O(pixels x primitives overlapping the pixel's tile).
 /// @throws std::invalid_argument when the intrinsics or sensor params are invalid.

@@ -31,6 +31,9 @@ void SensorParams::ValidateOrThrow() const {
   }
   if (!std::isfinite(axial_sigma_offset_m))
     Invalid("axial_sigma_offset_m", axial_sigma_offset_m, "expected finite");
+  if (!(axial_noise_correlation_px >= 0.0 && axial_noise_correlation_px <= 256.0)) {
+    Invalid("axial_noise_correlation_px", axial_noise_correlation_px, "expected 0..256");
+  }
   if (!(lateral_sigma_px >= 0.0 && lateral_sigma_px <= 3.0)) {
     Invalid("lateral_sigma_px", lateral_sigma_px, "expected 0..3");
   }

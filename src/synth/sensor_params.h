@@ -7,7 +7,9 @@ namespace clutterseg::synth {
 /// in disparity space: d = disparity_focal_px * baseline_m / z, perturbed by Gaussian noise
 /// whose depth-equivalent sigma together with the disparity quantisation gives the axial
 /// sigma(z) = axial_sigma_base_m + axial_sigma_quad_m * (z - axial_sigma_offset_m)^2
-/// (Nguyen, Izadi, Lovell 2012).
+/// (Nguyen, Izadi, Lovell 2012). The noise is spatially correlated (see
+/// axial_noise_correlation_px) and added before the quantisation, so flat surfaces show
+/// quantisation terraces rather than per-pixel salt.
 struct SensorParams {
   double baseline_m{0.075};
   double disparity_focal_px{580.0};
@@ -19,6 +21,11 @@ struct SensorParams {
   double axial_sigma_base_m{0.0012};
   double axial_sigma_quad_m{0.0019};
   double axial_sigma_offset_m{0.4};
+  /// Correlation length (pixels) of the axial noise: the disparity noise is a smooth random
+  /// field whose correlation between pixels d apart is about exp(-(d / length)^2), as block
+  /// matching over a window correlates neighbouring pixels; each pixel's sigma is unchanged.
+  /// 0 gives independent per-pixel noise.
+  double axial_noise_correlation_px{7.0};
 
   /// Lateral noise: each pixel reports the surface seen from a neighbour offset by a
   /// rounded Gaussian of this sigma (pixels); 0 disables.

@@ -183,6 +183,31 @@ TEST(SpscRing, WaitNotFullWakesWhenTheConsumerPops) {
   EXPECT_EQ(dut.dropped(), 0u);
 }
 
+TEST(SpscRingDeathTest, MisuseAborts) {
+  EXPECT_DEATH(
+      {
+        SpscRing<Item> dut(4, 1);
+        Push(&dut, 0);
+        Push(&dut, 1);
+        dut.try_pop();
+        dut.try_pop();  // a second slot while max_consumer_held = 1
+      },
+      "max_consumer_held");
+  EXPECT_DEATH(
+      {
+        SpscRing<Item> dut(4, 1);
+        Item foreign;
+        dut.release(&foreign);
+      },
+      "invariant failed");
+  EXPECT_DEATH(
+      {
+        SpscRing<Item> dut(4, 1);
+        dut.push();  // nothing acquired
+      },
+      "without acquire");
+}
+
 TEST(FramePool, ReservesFrameBuffers) {
   FramePoolParams params;
   params.capacity = 2;

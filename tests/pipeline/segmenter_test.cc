@@ -1,6 +1,8 @@
 #include "pipeline/segmenter.h"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -92,31 +94,87 @@ TEST_F(SegmenterTest, SeparatesFreeStandingObjectsAndRemovesTheTable) {
   EXPECT_EQ(checked, 3);
 }
 
-TEST_F(SegmenterTest, TouchingAndStackedObjectsComeOutSeparate) {
+// Replaces the objects of a generated scene (keeping its table and camera) by `boxes`, each
+// {centre x, centre y, size x, size y, size z, bottom z above the table top}, labelled 1..n.
+struct BoxSpec {
+  double x, y, sx, sy, sz, bottom;
+  double yaw_rad{0.0};
+};
+Rendered RenderBoxes(const std::vector<BoxSpec>& boxes, uint64_t seed) {
   synth::SceneParams p = SimpleParams();
-  p.object_kinds = {synth::ObjectKind::kBox};
-  p.min_objects = 3;
-  p.max_objects = 3;
-  p.touch_probability = 0.5;
-  p.stack_probability = 0.5;
-  int touching_or_stacked = 0;
-  double wov_sum = 0.0;
-  int frames = 0;
-  for (uint64_t seed = 100; seed < 106; ++seed) {
-    const Rendered r = Render(p, seed, /*noise=*/false);
-    for (const synth::SceneObject& o : r.scene.objects) {
-      touching_or_stacked += o.placement == synth::Placement::kTouching ||
-                             o.placement == synth::Placement::kStacked;
-    }
-    Segmenter dut(params_);
-    SegmentationResult result;
-    dut.Process(r.cloud, r.intrinsics, &result);
-    const eval::FrameMetrics m = Score(r.cloud, result);
-    wov_sum += m.wov;
-    ++frames;
+  p.min_objects = 1;
+  p.max_objects = 1;
+  p.camera_distance_min_m = 0.9;
+  p.camera_distance_max_m = 0.9;
+  Rendered r;
+  r.scene = synth::GenerateScene(p, seed);
+  std::vector<synth::Primitive> kept;
+  for (const synth::Primitive& prim : r.scene.primitives) {
+    if (prim.label == 0) kept.push_back(prim);
   }
-  ASSERT_GT(touching_or_stacked, 3) << "the scenes must exercise contact";
-  EXPECT_GT(wov_sum / frames, 0.8);
+  r.scene.primitives = kept;
+  r.scene.objects.clear();
+  const double top = r.scene.table_top_z_m;
+  uint32_t label = 0;
+  for (const BoxSpec& b : boxes) {
+    synth::Primitive box;
+    box.kind = synth::PrimitiveKind::kBox;
+    box.pose = synth::Pose::FromYaw(b.yaw_rad, synth::Vec3{b.x, b.y, top + b.bottom + b.sz / 2});
+    box.size_m = synth::Vec3{b.sx, b.sy, b.sz};
+    box.label = ++label;
+    box.color = core::Rgb8{static_cast<uint8_t>(60 * label), 120, 200};
+    r.scene.primitives.push_back(box);
+  }
+  synth::RenderedFrame frame;
+  synth::RenderScene(r.scene, p.intrinsics, synth::SensorParams{}, seed, &frame);
+  synth::ToPointCloud(frame, &r.cloud);
+  r.intrinsics = p.intrinsics;
+  return r;
+}
+
+// Every ground-truth object is matched by its own segment with IoU above `min_iou`.
+void ExpectSeparate(const Rendered& r, const SegmenterParams& params, double min_iou,
+                    const char* what) {
+  Segmenter dut(params);
+  SegmentationResult result;
+  dut.Process(r.cloud, r.intrinsics, &result);
+  const eval::FrameMetrics m = Score(r.cloud, result);
+  ASSERT_GE(m.num_gt_objects, 2) << what;
+  EXPECT_EQ(m.under_segmented, 0) << what;
+  std::vector<uint32_t> used;
+  for (const eval::ObjectScore& o : m.objects) {
+    EXPECT_GT(o.overlap, min_iou) << what << ": object " << o.gt_id;
+    EXPECT_EQ(std::count(used.begin(), used.end(), o.best_segment), 0)
+        << what << ": two objects share segment " << o.best_segment;
+    used.push_back(o.best_segment);
+  }
+}
+
+TEST_F(SegmenterTest, TouchingObjectsComeOutSeparate) {
+  // A tall box and a low box turned by 30 degrees whose corner touches the tall box's side
+  // (1 mm gap). Boxes touching with flush, coplanar faces are not separable by geometry
+  // alone (docs/method.md, limitations).
+  const double half_x = 0.05 * (std::cos(0.5236) + std::sin(0.5236));
+  const Rendered r = RenderBoxes({{-0.051, 0.0, 0.10, 0.10, 0.16, 0.0},
+                                  {half_x, 0.0, 0.10, 0.10, 0.08, 0.0, 0.5236}},
+                                 41);
+  ExpectSeparate(r, params_, 0.8, "touching boxes");
+}
+
+TEST_F(SegmenterTest, StackedObjectsComeOutSeparate) {
+  // A small box standing on the middle of a wide, low one.
+  const Rendered r = RenderBoxes({{0.0, 0.0, 0.24, 0.18, 0.07, 0.0},
+                                  {0.0, 0.0, 0.08, 0.08, 0.12, 0.07}},
+                                 42);
+  ExpectSeparate(r, params_, 0.8, "stacked boxes");
+}
+
+TEST_F(SegmenterTest, OccludingObjectsComeOutSeparate) {
+  // A box partly hiding a taller one 8 cm behind it (the camera looks along +y).
+  const Rendered r = RenderBoxes({{0.0, 0.10, 0.12, 0.08, 0.20, 0.0},
+                                  {0.04, -0.02, 0.10, 0.06, 0.10, 0.0}},
+                                 43);
+  ExpectSeparate(r, params_, 0.75, "occluding boxes");
 }
 
 TEST_F(SegmenterTest, ResultIsIdenticalForAnyThreadCount) {

@@ -88,7 +88,10 @@ TEST_P(MosdFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Learn, MosdFrames,
-                         ::testing::Values("learn0", "learn10", "learn20", "learn30", "learn40"));
+                         ::testing::Values("learn0", "learn10", "learn20", "learn30", "learn40"),
+                         [](const ::testing::TestParamInfo<const char*>& param_info) {
+                           return std::string(param_info.param);
+                         });
 
 }  // namespace
 }  // namespace clutterseg::supervoxel

@@ -42,6 +42,8 @@ void ExpectSameOutput(const Supervoxels& a, const Supervoxels& b) {
     ASSERT_EQ(a.normal[i].x, b.normal[i].x) << i;
     ASSERT_EQ(a.normal[i].y, b.normal[i].y) << i;
     ASSERT_EQ(a.normal[i].z, b.normal[i].z) << i;
+    ASSERT_EQ(a.eigenvalues[i].x, b.eigenvalues[i].x) << i;
+    ASSERT_EQ(a.eigenvalues[i].z, b.eigenvalues[i].z) << i;
   }
 }
 
@@ -139,6 +141,44 @@ TEST(Supervoxelizer, EveryFinitePointIsLabelledOnATableScene) {
       EXPECT_GT(out.size(), 100u);
       EXPECT_GT(dut.num_seeds(), 100u);
     }
+  }
+}
+
+TEST(Supervoxelizer, StatisticsMatchTheMemberPoints) {
+  const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 2.0);
+  const Supervoxels out = Segment(scene.cloud);
+  const size_t n = out.size();
+  std::vector<double> sum(3 * n, 0.0), sq(n, 0.0);
+  std::vector<size_t> count(n, 0);
+  for (size_t i = 0; i < scene.cloud.size(); ++i) {
+    if (out.pixel_label[i] < 0) continue;
+    const size_t s = static_cast<size_t>(out.pixel_label[i]);
+    const core::Vec3f& p = scene.cloud.xyz[i];
+    sum[3 * s] += p.x;
+    sum[3 * s + 1] += p.y;
+    sum[3 * s + 2] += p.z;
+    ++count[s];
+  }
+  for (size_t i = 0; i < scene.cloud.size(); ++i) {
+    if (out.pixel_label[i] < 0) continue;
+    const size_t s = static_cast<size_t>(out.pixel_label[i]);
+    const core::Vec3f& p = scene.cloud.xyz[i];
+    const double dx = p.x - sum[3 * s] / count[s], dy = p.y - sum[3 * s + 1] / count[s],
+                 dz = p.z - sum[3 * s + 2] / count[s];
+    sq[s] += dx * dx + dy * dy + dz * dz;
+  }
+  for (size_t s = 0; s < n; ++s) {
+    ASSERT_EQ(count[s], out.num_points[s]);
+    EXPECT_NEAR(out.centroid[s].x, sum[3 * s] / count[s], 1e-5) << s;
+    EXPECT_NEAR(out.centroid[s].y, sum[3 * s + 1] / count[s], 1e-5) << s;
+    EXPECT_NEAR(out.centroid[s].z, sum[3 * s + 2] / count[s], 1e-5) << s;
+    if (count[s] < 3) continue;
+    // The eigenvalues sum to the trace of the covariance and are sorted.
+    const core::Vec3f& l = out.eigenvalues[s];
+    EXPECT_NEAR(l.x + l.y + l.z, sq[s] / count[s], 1e-7 + 1e-4 * sq[s] / count[s]) << s;
+    EXPECT_GE(l.x, l.y);
+    EXPECT_GE(l.y, l.z);
+    EXPECT_NEAR(out.curvature[s], l.z / std::max(1e-12f, l.x + l.y + l.z), 1e-3) << s;
   }
 }
 

@@ -1,4 +1,6 @@
 #include <cmath>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -17,39 +19,143 @@ using testing::MakePrimitive;
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Standard deviation (metres) of the measured depth over the central 200 x 200 pixels.
-double CentralDepthSigma(const RenderedFrame& f, double* mean_m) {
-  double sum = 0.0, sum2 = 0.0;
-  int n = 0;
+// Depth errors (metres, measured minus true) of the valid pixels in the central 200 x 200.
+void AppendCentralErrors(const RenderedFrame& f, std::vector<double>* errors) {
   for (int v = f.depth.height / 2 - 100; v < f.depth.height / 2 + 100; ++v) {
     for (int u = f.depth.width / 2 - 100; u < f.depth.width / 2 + 100; ++u) {
       const uint16_t d = f.depth.at(u, v);
-      if (d == 0) continue;
-      sum += d * 0.001;
-      sum2 += d * 0.001 * d * 0.001;
+      if (d != 0) errors->push_back(d * 0.001 - f.true_depth_m.at(u, v));
+    }
+  }
+}
+
+// Sample correlation of the depth error between pixels `d` apart along rows, over the valid
+// pixel pairs of the whole image.
+double ErrorCorrelation(const RenderedFrame& f, int d) {
+  double sxy = 0.0, sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0;
+  long n = 0;
+  for (int v = 0; v < f.depth.height; ++v) {
+    for (int u = 0; u + d < f.depth.width; ++u) {
+      const uint16_t a = f.depth.at(u, v);
+      const uint16_t b = f.depth.at(u + d, v);
+      if (a == 0 || b == 0) continue;
+      const double x = a * 0.001 - f.true_depth_m.at(u, v);
+      const double y = b * 0.001 - f.true_depth_m.at(u + d, v);
+      sxy += x * y;
+      sx += x;
+      sy += y;
+      sxx += x * x;
+      syy += y * y;
       ++n;
     }
   }
-  *mean_m = sum / n;
-  return std::sqrt(std::max(0.0, sum2 / n - *mean_m * *mean_m));
+  const double cov = sxy / n - (sx / n) * (sy / n);
+  return cov / std::sqrt((sxx / n - (sx / n) * (sx / n)) * (syy / n - (sy / n) * (sy / n)));
+}
+
+// Fraction of horizontally adjacent valid pixel pairs that report the same depth.
+double EqualNeighbourFraction(const RenderedFrame& f) {
+  long equal = 0, pairs = 0;
+  for (int v = 0; v < f.depth.height; ++v) {
+    for (int u = 0; u + 1 < f.depth.width; ++u) {
+      const uint16_t a = f.depth.at(u, v);
+      const uint16_t b = f.depth.at(u + 1, v);
+      if (a == 0 || b == 0) continue;
+      equal += a == b ? 1 : 0;
+      ++pairs;
+    }
+  }
+  return static_cast<double>(equal) / pairs;
 }
 
 TEST(SensorModel, AxialNoiseOnFlatWallHasConfiguredSigma) {
-  const SensorParams sensor;  // default: noise and 1/8 px disparity quantisation on
+  const SensorParams sensor;  // default: correlated noise and 1/8 px disparity quantisation on
   for (double z : {1.0, 2.0}) {
     Scene scene = CameraFrameScene();
     scene.primitives.push_back(FrontalWall(z));
+    // The noise is correlated over several pixels, so one image holds few independent
+    // samples: pool the per-pixel errors of several noise seeds.
+    std::vector<double> errors;
     RenderedFrame frame;
-    RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 17, &frame);
-    double mean = 0.0;
-    const double sigma = CentralDepthSigma(frame, &mean);
+    for (uint64_t seed = 17; seed < 17 + 8; ++seed) {
+      RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, seed, &frame);
+      AppendCentralErrors(frame, &errors);
+    }
+    ASSERT_GT(errors.size(), 8u * 39000u);
+    double sum = 0.0, sum2 = 0.0;
+    for (double e : errors) {
+      sum += e;
+      sum2 += e * e;
+    }
+    const double bias = sum / errors.size();
+    const double sigma = std::sqrt(std::max(0.0, sum2 / errors.size() - bias * bias));
     const double expected = sensor.AxialSigmaM(z);
     RecordProperty(z < 1.5 ? "sigma_1m_um" : "sigma_2m_um", static_cast<int>(sigma * 1e6));
     EXPECT_NEAR(sigma, expected, 0.2 * expected) << "z = " << z;
-    EXPECT_NEAR(mean, z, 0.5 * expected) << "z = " << z;
+    EXPECT_NEAR(bias, 0.0, 0.5 * expected) << "z = " << z;
   }
   // The model itself: 0.0012 + 0.0019 (z - 0.4)^2.
   EXPECT_NEAR(sensor.AxialSigmaM(1.0), 0.0012 + 0.0019 * 0.36, 1e-12);
+}
+
+TEST(SensorModel, AxialNoiseIsSpatiallyCorrelatedAndDecaysWithDistance) {
+  Scene scene = CameraFrameScene();
+  scene.primitives.push_back(FrontalWall(1.5));
+  SensorParams sensor = NoiselessSensorParams();
+  sensor.axial_noise = true;  // no quantisation, lateral noise or dropout
+  ASSERT_GT(sensor.axial_noise_correlation_px, 2.0);
+  RenderedFrame frame;
+  RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 5, &frame);
+  double previous = 1.0;
+  for (int d : {1, 2, 4, 8, 16}) {
+    const double rho = ErrorCorrelation(frame, d);
+    EXPECT_LT(rho, previous) << "d = " << d;
+    RecordProperty("rho_" + std::to_string(d) + "px_x100", static_cast<int>(100 * rho));
+    previous = rho;
+    if (d == 1) {
+      EXPECT_GT(rho, 0.85);
+    }
+  }
+  EXPECT_LT(previous, 0.15);  // 16 px apart: nearly independent
+
+  // Correlation length 0: independent per-pixel noise.
+  sensor.axial_noise_correlation_px = 0.0;
+  RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 5, &frame);
+  EXPECT_NEAR(ErrorCorrelation(frame, 1), 0.0, 0.05);
+  // A longer correlation length correlates distant pixels more.
+  sensor.axial_noise_correlation_px = 20.0;
+  RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 5, &frame);
+  EXPECT_GT(ErrorCorrelation(frame, 8), 0.6);
+}
+
+TEST(SensorModel, CorrelationLengthIsValidated) {
+  SensorParams sensor;
+  sensor.axial_noise_correlation_px = -1.0;
+  try {
+    sensor.ValidateOrThrow();
+    ADD_FAILURE() << "negative correlation length accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("axial_noise_correlation_px"), std::string::npos);
+  }
+  sensor.axial_noise_correlation_px = 0.0;
+  EXPECT_NO_THROW(sensor.ValidateOrThrow());
+}
+
+TEST(SensorModel, CorrelatedNoiseQuantisesIntoTerraces) {
+  // A flat wall at 1 m: the 1/8 px disparity step is 2.9 mm, the noise sigma 1.9 mm.
+  Scene scene = CameraFrameScene();
+  scene.primitives.push_back(FrontalWall(1.0));
+  SensorParams sensor;
+  sensor.lateral_sigma_px = 0.0;
+  RenderedFrame frame;
+  RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 9, &frame);
+  const double correlated = EqualNeighbourFraction(frame);
+  sensor.axial_noise_correlation_px = 0.0;
+  RenderScene(scene, core::DefaultKinectIntrinsics(), sensor, 9, &frame);
+  const double independent = EqualNeighbourFraction(frame);
+  RecordProperty("equal_neighbours_pct", static_cast<int>(100 * correlated));
+  EXPECT_GT(correlated, 0.85);
+  EXPECT_LT(independent, 0.6);
 }
 
 TEST(SensorModel, QuantisationAloneProducesDisparitySteps) {

@@ -1,7 +1,6 @@
 // Runs the clutterseg-synth executable (only built into synth_test when clutterseg_io is
 // available) and checks its files and exit codes.
 #include <algorithm>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -10,21 +9,17 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
 
 #include "io/pcd.h"
 #include "tests/testing/test_data.h"
+#include "tool_runner.h"
 
 namespace clutterseg::synth {
 namespace {
 
 namespace fs = std::filesystem;
 
-int RunTool(const std::string& args) {
-  const std::string cmd = std::string(CLUTTERSEG_SYNTH_TOOL) + " " + args + " >/dev/null 2>&1";
-  const int status = std::system(cmd.c_str());
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+int RunTool(const std::string& args) { return testutil::RunSynthTool(args); }
 
 std::string ReadAll(const fs::path& p) {
   std::ifstream f(p, std::ios::binary);
@@ -103,6 +98,7 @@ TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {
   EXPECT_EQ(RunTool(out + " --objects many"), 2);
   EXPECT_EQ(RunTool(out + " --count 0"), 2);
   EXPECT_EQ(RunTool(out + " --width 3"), 2);
+  EXPECT_EQ(RunTool(out + " --noise-correlation -1"), 2);
   EXPECT_EQ(RunTool(out + " --no-such-option"), 2);
   EXPECT_EQ(RunTool("--help"), 0);
   // The output path is an existing regular file.

@@ -35,8 +35,8 @@ class KeyIndexMap {
 
   size_t size() const { return size_; }
 
-  /// Returns the slot holding `key`, inserting it with `value` when absent. `*inserted` says
-  /// which. Grows (rehashing) when the load would exceed 1/2; slots are then invalidated.
+  /// Returns the value stored for `key`, inserting `value` for it when absent (`*inserted`
+  /// says which). Grows (rehashing) when the load would exceed 1/2.
   uint32_t FindOrInsert(uint64_t key, uint32_t value, bool* inserted) {
     if (2 * (size_ + 1) > keys_.size()) Grow();
     const size_t mask = keys_.size() - 1;

@@ -1,0 +1,678 @@
+// clutterseg-bench: per-stage timings, single-segmenter and pipelined throughput, peak RSS
+// and steady-state heap allocations of the Segmenter, optionally against PCL's supervoxels +
+// LCCP on the same frames in the same run.
+
+#include <time.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <fstream>
+#include <iostream>
+#include <latch>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <sys/resource.h>
+
+#include "config/segmenter_keys.h"
+#include "core/json_writer.h"
+#include "core/thread_pool.h"
+#include "pipeline/segmenter.h"
+#include "pipeline/segmenter_params.h"
+#include "tools/bench/alloc_counter.h"
+#include "tools/bench/frame_set.h"
+#if CLUTTERSEG_BENCH_HAVE_PCL
+#include "tools/bench/pcl_lccp_runner.h"
+#endif
+
+namespace clutterseg::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsBetween(Clock::time_point a, Clock::time_point b) {
+  return std::chrono::duration<double, std::milli>(b - a).count();
+}
+
+double ProcessCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+// ---------------------------------------------------------------------------------------
+// Statistics.
+
+struct Summary {
+  double mean{0}, p50{0}, p90{0}, p99{0}, max{0};
+};
+
+// Percentiles by linear interpolation between closest ranks.
+Summary Summarize(std::vector<double> v) {
+  Summary s;
+  if (v.empty()) return s;
+  std::sort(v.begin(), v.end());
+  double sum = 0;
+  for (double x : v) sum += x;
+  s.mean = sum / static_cast<double>(v.size());
+  auto pct = [&v](double q) {
+    const double pos = q * static_cast<double>(v.size() - 1);
+    const size_t lo = static_cast<size_t>(std::floor(pos));
+    const size_t hi = std::min(v.size() - 1, lo + 1);
+    return v[lo] + (v[hi] - v[lo]) * (pos - static_cast<double>(lo));
+  };
+  s.p50 = pct(0.5);
+  s.p90 = pct(0.9);
+  s.p99 = pct(0.99);
+  s.max = v.back();
+  return s;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+// The reported stages. "supervoxels" is the supervoxelizer time without its voxelize and
+// normals steps (seeding, growth, refinement, output); "planes" includes the expansion.
+struct StageDef {
+  const char* name;
+  double (*get)(const pipeline::StageTimes&);
+};
+
+const std::vector<StageDef>& Stages() {
+  static const std::vector<StageDef> kStages = {
+      {"points", [](const pipeline::StageTimes& t) { return t.points_ms; }},
+      {"voxelize", [](const pipeline::StageTimes& t) { return t.voxelize_ms; }},
+      {"normals", [](const pipeline::StageTimes& t) { return t.normals_ms; }},
+      {"supervoxels",
+       [](const pipeline::StageTimes& t) {
+         return std::max(0.0, t.supervoxels_ms - t.voxelize_ms - t.normals_ms);
+       }},
+      {"features", [](const pipeline::StageTimes& t) { return t.features_ms; }},
+      {"linkage", [](const pipeline::StageTimes& t) { return t.linkage_ms; }},
+      {"planes+expansion",
+       [](const pipeline::StageTimes& t) { return t.planes_ms + t.expansion_ms; }},
+      {"refine+objects", [](const pipeline::StageTimes& t) { return t.objects_ms; }},
+      {"total", [](const pipeline::StageTimes& t) { return t.total_ms; }},
+  };
+  return kStages;
+}
+
+// ---------------------------------------------------------------------------------------
+// Memory.
+
+struct ProcStatus {
+  double vm_rss_mb{0};
+  double vm_hwm_mb{0};
+};
+
+ProcStatus ReadProcStatus() {
+  ProcStatus s;
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line)) {
+    double kb = 0;
+    if (std::sscanf(line.c_str(), "VmRSS: %lf kB", &kb) == 1) s.vm_rss_mb = kb / 1024.0;
+    if (std::sscanf(line.c_str(), "VmHWM: %lf kB", &kb) == 1) s.vm_hwm_mb = kb / 1024.0;
+  }
+  return s;
+}
+
+double MaxRssMb() {
+  rusage ru{};
+  getrusage(RUSAGE_SELF, &ru);
+  return static_cast<double>(ru.ru_maxrss) / 1024.0;  // kilobytes on Linux
+}
+
+// Resets VmHWM to the current RSS (Linux >= 4.0); false when not permitted.
+bool ResetPeakRss() {
+  std::ofstream out("/proc/self/clear_refs");
+  if (!out) return false;
+  out << "5";
+  out.flush();
+  return static_cast<bool>(out);
+}
+
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  double a = 0, b = 0, c = 0;
+  in >> a >> b >> c;
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%.2f %.2f %.2f", a, b, c);
+  return buf;
+}
+
+// ---------------------------------------------------------------------------------------
+// Runs.
+
+// How segmenters and thread pools are arranged.
+struct Config {
+  std::string name;
+  int lanes{1};             // Segmenter instances, each on its own thread (1 = caller)
+  bool shared_pool{false};  // all lanes use one pool of `pool_threads`
+  int pool_threads{1};      // threads per pool (1 = no pool: the lane's thread does all)
+};
+
+struct Sample {
+  pipeline::StageTimes times;
+  double wall_ms{0};
+  uint32_t supervoxels{0};
+  uint32_t objects{0};
+};
+
+struct ConfigResult {
+  Config config;
+  size_t frames{0};  // processed in the timed passes
+  double wall_ms{0};
+  double cpu_ms{0};
+  AllocCounts allocs;
+  double fps{0};
+  double cpu_ms_per_frame{0};
+  std::vector<Summary> stages;  // per Stages() entry, over frames (median over repetitions)
+  Summary latency;              // Process() wall time per frame, over frames
+  double supervoxels_mean{0};
+  double objects_mean{0};
+  double rss_before_mb{0};  // VmRSS before the configuration's segmenters were created
+  double peak_rss_mb{0};    // VmHWM during the configuration (reset before it when possible)
+};
+
+ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& params,
+                       const Config& config, int repeat, int warmup, int trace_allocs) {
+  const size_t n = frames.size();
+  ResetPeakRss();
+  const double rss_before = ReadProcStatus().vm_rss_mb;
+  std::vector<std::unique_ptr<core::ThreadPool>> pools;
+  std::vector<core::ThreadPool*> lane_pool(static_cast<size_t>(config.lanes), nullptr);
+  if (config.pool_threads > 1) {
+    if (config.shared_pool) {
+      pools.push_back(std::make_unique<core::ThreadPool>(config.pool_threads));
+      for (auto& p : lane_pool) p = pools[0].get();
+    } else {
+      for (auto& p : lane_pool) {
+        pools.push_back(std::make_unique<core::ThreadPool>(config.pool_threads));
+        p = pools.back().get();
+      }
+    }
+  }
+  std::vector<std::unique_ptr<pipeline::Segmenter>> segmenters;
+  std::vector<pipeline::SegmentationResult> results(static_cast<size_t>(config.lanes));
+  for (int l = 0; l < config.lanes; ++l) {
+    segmenters.push_back(std::make_unique<pipeline::Segmenter>(params, lane_pool[l]));
+  }
+
+  const size_t total = n * static_cast<size_t>(repeat);
+  std::vector<Sample> samples(total);
+
+  // Jobs are frame indices 0..count-1 (modulo n), taken by whichever lane is free, as the
+  // daemon's dispatcher does.
+  auto run_jobs = [&](size_t count, bool record, double* wall_ms, double* cpu_ms,
+                      AllocCounts* allocs) {
+    std::atomic<size_t> next{0};
+    std::vector<std::exception_ptr> errors(static_cast<size_t>(config.lanes));
+    auto lane_loop = [&](int l) {
+      try {
+        for (;;) {
+          const size_t j = next.fetch_add(1);
+          if (j >= count) return;
+          const size_t f = j % n;
+          const Clock::time_point t0 = Clock::now();
+          segmenters[l]->Process(frames.clouds[f], frames.intrinsics, &results[l]);
+          const Clock::time_point t1 = Clock::now();
+          if (record) {
+            samples[j].times = results[l].times;
+            samples[j].wall_ms = MsBetween(t0, t1);
+            samples[j].supervoxels = results[l].num_supervoxels;
+            samples[j].objects = static_cast<uint32_t>(results[l].objects.size());
+          }
+        }
+      } catch (...) {
+        errors[l] = std::current_exception();
+      }
+    };
+    const AllocCounts a0 = CurrentAllocCounts();
+    double cpu0 = 0;
+    Clock::time_point t0;
+    if (config.lanes == 1) {
+      cpu0 = ProcessCpuMs();
+      t0 = Clock::now();
+      lane_loop(0);
+    } else {
+      std::latch start(1);
+      std::vector<std::thread> threads;
+      for (int l = 0; l < config.lanes; ++l) {
+        threads.emplace_back([&, l] {
+          start.wait();
+          lane_loop(l);
+        });
+      }
+      // Thread creation is outside the measured window.
+      *allocs = CurrentAllocCounts();
+      cpu0 = ProcessCpuMs();
+      t0 = Clock::now();
+      start.count_down();
+      for (auto& t : threads) t.join();
+    }
+    const Clock::time_point t1 = Clock::now();
+    const double cpu1 = ProcessCpuMs();
+    const AllocCounts a1 = CurrentAllocCounts();
+    *wall_ms = MsBetween(t0, t1);
+    *cpu_ms = cpu1 - cpu0;
+    *allocs = a1 - (config.lanes == 1 ? a0 : *allocs);
+    for (const auto& e : errors) {
+      if (e) std::rethrow_exception(e);
+    }
+  };
+
+  ConfigResult r;
+  r.config = config;
+  double wall = 0, cpu = 0;
+  AllocCounts allocs;
+  if (warmup > 0) run_jobs(n * static_cast<size_t>(warmup), false, &wall, &cpu, &allocs);
+  TraceNextAllocations(trace_allocs);
+  run_jobs(total, true, &r.wall_ms, &r.cpu_ms, &r.allocs);
+  TraceNextAllocations(0);
+  r.rss_before_mb = rss_before;
+  r.peak_rss_mb = ReadProcStatus().vm_hwm_mb;
+  r.frames = total;
+  r.fps = r.wall_ms > 0 ? 1000.0 * static_cast<double>(total) / r.wall_ms : 0.0;
+  r.cpu_ms_per_frame = r.cpu_ms / static_cast<double>(total);
+
+  // Per frame: median over repetitions; then statistics over frames.
+  const auto& stages = Stages();
+  std::vector<double> per_frame(n), reps(static_cast<size_t>(repeat));
+  for (const StageDef& s : stages) {
+    for (size_t f = 0; f < n; ++f) {
+      for (int k = 0; k < repeat; ++k) reps[k] = s.get(samples[k * n + f].times);
+      per_frame[f] = Median(reps);
+    }
+    r.stages.push_back(Summarize(per_frame));
+  }
+  for (size_t f = 0; f < n; ++f) {
+    for (int k = 0; k < repeat; ++k) reps[k] = samples[k * n + f].wall_ms;
+    per_frame[f] = Median(reps);
+  }
+  r.latency = Summarize(per_frame);
+  uint64_t sv_sum = 0, obj_sum = 0;
+  for (size_t f = 0; f < n; ++f) {  // first repetition
+    sv_sum += samples[f].supervoxels;
+    obj_sum += samples[f].objects;
+  }
+  r.supervoxels_mean = static_cast<double>(sv_sum) / static_cast<double>(n);
+  r.objects_mean = static_cast<double>(obj_sum) / static_cast<double>(n);
+  return r;
+}
+
+#if CLUTTERSEG_BENCH_HAVE_PCL
+double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+struct PclResult {
+  Summary supervoxels, lccp, total;
+  double cpu_ms_per_frame{0};  // thread CPU time of the runs, mean per run
+  double supervoxels_mean_count{0};
+  double segments_mean{0};
+  double peak_rss_mb{0};
+};
+
+PclResult RunPcl(const FrameSet& frames, int repeat) {
+  PclLccpRunner runner{pcl_baseline::BaselineParams{}};
+  std::vector<double> sv(frames.size()), lc(frames.size()), tot(frames.size());
+  std::vector<double> rs(static_cast<size_t>(repeat)), rl(rs.size()), rt(rs.size());
+  PclResult out;
+  for (size_t f = 0; f < frames.size(); ++f) {
+    runner.SetInput(frames.clouds[f]);
+    for (int k = 0; k < repeat; ++k) {
+      const double cpu0 = ThreadCpuMs();
+      const PclLccpTimes t = runner.Run();
+      out.cpu_ms_per_frame += ThreadCpuMs() - cpu0;
+      rs[k] = t.supervoxels_ms;
+      rl[k] = t.lccp_ms;
+      rt[k] = t.total_ms;
+      if (k == 0) {
+        out.supervoxels_mean_count += static_cast<double>(t.num_supervoxels);
+        out.segments_mean += static_cast<double>(t.num_segments);
+      }
+    }
+    sv[f] = Median(rs);
+    lc[f] = Median(rl);
+    tot[f] = Median(rt);
+  }
+  out.supervoxels = Summarize(sv);
+  out.lccp = Summarize(lc);
+  out.total = Summarize(tot);
+  out.supervoxels_mean_count /= static_cast<double>(frames.size());
+  out.cpu_ms_per_frame /= static_cast<double>(frames.size()) * repeat;
+  out.segments_mean /= static_cast<double>(frames.size());
+  return out;
+}
+#endif
+
+// ---------------------------------------------------------------------------------------
+// Output.
+
+void WriteSummary(core::JsonWriter* w, std::string_view key, const Summary& s) {
+  w->Key(key).BeginObject();
+  w->Field("mean", s.mean).Field("p50", s.p50).Field("p90", s.p90).Field("p99", s.p99);
+  w->Field("max", s.max).EndObject();
+}
+
+void PrintStageTable(const ConfigResult& r) {
+  std::printf(
+      "\nPer-stage wall time, ms (%s; per frame the median of the repetitions,\n"
+      "then statistics over frames):\n",
+      r.config.name.c_str());
+  std::printf("  %-18s %9s %9s %9s %9s %9s\n", "stage", "mean", "p50", "p90", "p99", "max");
+  const auto& stages = Stages();
+  for (size_t i = 0; i < stages.size(); ++i) {
+    const Summary& s = r.stages[i];
+    std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", stages[i].name, s.mean, s.p50, s.p90,
+                s.p99, s.max);
+  }
+  const Summary& l = r.latency;
+  std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", "end-to-end (wall)", l.mean, l.p50, l.p90,
+              l.p99, l.max);
+}
+
+struct Options {
+  std::string dir;
+  int synthetic{0};
+  uint64_t seed{7};
+  size_t max_frames{0};
+  int repeat{3};
+  int warmup{1};
+  int threads{0};
+  bool pipelined{true};
+  bool pcl{false};
+  int pcl_repeat{1};
+  std::string json_path;
+  int trace_allocs{0};
+  size_t trace_config{0};
+  std::vector<std::string> overrides;
+};
+
+// Applies "key=value" (a key of the daemon configuration's segmenter section, e.g.
+// supervoxel.refinement_iterations=0) to `params`.
+void ApplySegmenterOverride(const std::string& assignment, pipeline::SegmenterParams* params) {
+  const size_t eq = assignment.find('=');
+  if (eq == std::string::npos) {
+    throw std::invalid_argument("--set expects KEY=VALUE, got '" + assignment + "'");
+  }
+  const std::string key = assignment.substr(0, eq);
+  for (const auto& k : config::SegmenterKeys()) {
+    if (k.path == key) {
+      k.set(assignment.substr(eq + 1), params);
+      return;
+    }
+  }
+  throw std::invalid_argument("--set: unknown segmenter key '" + key + "'");
+}
+
+int Run(int argc, char** argv) {
+  Options opt;
+  CLI::App app{
+      "Benchmarks the clutterseg Segmenter on a directory of PCD frames or on synthetic "
+      "renders: per-stage wall times, frames per second for one segmenter and for two "
+      "pipelined segmenters, peak RSS and heap allocations per frame at steady state."};
+  app.add_option("DIR", opt.dir, "directory of organized *.pcd frames");
+  app.add_option("--synthetic", opt.synthetic, "render N synthetic frames instead of DIR")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--seed", opt.seed, "synthetic seed (frames equal clutterseg-synth --seed)")
+      ->capture_default_str();
+  app.add_option("--max-frames", opt.max_frames, "use at most N frames of DIR (0 = all)");
+  app.add_option("--repeat,-r", opt.repeat, "timed passes over the frames")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app.add_option("--warmup", opt.warmup, "untimed passes before each measurement")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  app.add_option("--threads,-t", opt.threads, "threads of the segmenter's pool (0 = cores)")
+      ->check(CLI::Range(0, 256))
+      ->capture_default_str();
+  app.add_flag("!--no-pipelined", opt.pipelined, "skip the two-segmenter configurations");
+  app.add_flag("--pcl", opt.pcl, "also run PCL supervoxels + LCCP on the same frames");
+  app.add_option("--pcl-repeat", opt.pcl_repeat, "PCL runs per frame (median is used)")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  app.add_option("--trace-allocs", opt.trace_allocs,
+                 "print the call stacks of the first N allocations in a timed loop")
+      ->check(CLI::Range(0, 100000));
+  app.add_option("--trace-config", opt.trace_config,
+                 "configuration (0-based, in the throughput table's order) to trace")
+      ->capture_default_str();
+  app.add_option("--set", opt.overrides,
+                 "segmenter parameter KEY=VALUE (keys of the configuration's segmenter "
+                 "section, e.g. supervoxel.refinement_iterations=0); repeatable");
+  app.add_option("--json", opt.json_path, "also write the JSON summary line to this file");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  if (opt.dir.empty() == (opt.synthetic == 0)) {
+    throw std::invalid_argument("give either DIR or --synthetic N (not both)");
+  }
+#if !CLUTTERSEG_BENCH_HAVE_PCL
+  if (opt.pcl) {
+    throw std::invalid_argument(
+        "--pcl needs a build with -DCLUTTERSEG_PCL_BASELINE=ON (PCL is not linked)");
+  }
+#endif
+  const int threads = opt.threads > 0
+                          ? opt.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  const std::string load_start = LoadAverage();
+
+  const Clock::time_point tl = Clock::now();
+  const FrameSet frames = opt.synthetic > 0
+                              ? RenderSyntheticFrames(opt.synthetic, opt.seed, threads)
+                              : LoadPcdDirectory(opt.dir, opt.max_frames);
+  const double load_ms = MsBetween(tl, Clock::now());
+  size_t valid_points = 0;
+  for (const auto& c : frames.clouds) valid_points += c.CountValid();
+  const double frames_mb = static_cast<double>(frames.HeapBytes()) / (1024.0 * 1024.0);
+  std::printf(
+      "clutterseg-bench: %zu frames from %s (%.0f ms to load, %.1f MiB in memory, "
+      "%.0f valid points per frame)\n",
+      frames.size(), frames.source.c_str(), load_ms, frames_mb,
+      static_cast<double>(valid_points) / static_cast<double>(frames.size()));
+  std::printf("threads %d, repetitions %d, warm-up passes %d, load average at start %s\n", threads,
+              opt.repeat, opt.warmup, load_start.c_str());
+
+  pipeline::SegmenterParams params;
+  for (const std::string& o : opt.overrides) {
+    ApplySegmenterOverride(o, &params);
+    std::printf("segmenter parameter %s\n", o.c_str());
+  }
+  params.ValidateOrThrow();
+  const ProcStatus after_load = ReadProcStatus();
+  const bool hwm_reset = ResetPeakRss();
+
+  std::vector<Config> configs;
+  configs.push_back({"1 segmenter, pool " + std::to_string(threads), 1, true, threads});
+  if (threads > 1) configs.push_back({"1 segmenter, no pool", 1, true, 1});
+  if (opt.pipelined) {
+    configs.push_back({"2 segmenters, shared pool " + std::to_string(threads), 2, true, threads});
+    configs.push_back({"2 segmenters, no pools", 2, false, 1});
+    if (threads > 1) {
+      configs.push_back(
+          {"2 segmenters, own pool " + std::to_string(threads) + " each", 2, false, threads});
+    }
+  }
+  std::vector<ConfigResult> results;
+  for (size_t i = 0; i < configs.size(); ++i) {
+    std::fprintf(stderr, "running: %s\n", configs[i].name.c_str());
+    results.push_back(RunConfig(frames, params, configs[i], opt.repeat, opt.warmup,
+                                i == opt.trace_config ? opt.trace_allocs : 0));
+  }
+  ProcStatus after_ours = ReadProcStatus();
+  for (const ConfigResult& r : results) {
+    after_ours.vm_hwm_mb = std::max(after_ours.vm_hwm_mb, r.peak_rss_mb);
+  }
+  const double maxrss_ours = MaxRssMb();
+
+  PrintStageTable(results[0]);
+  if (results.size() > 1 && results[1].config.lanes == 1) PrintStageTable(results[1]);
+
+  std::printf("\nThroughput (%zu frames per configuration):\n", results[0].frames);
+  std::printf("  %-34s %7s %9s %9s %9s %9s %9s %9s %9s\n", "configuration", "FPS", "CPU ms/fr",
+              "lat mean", "lat p99", "new/fr", "malloc/fr", "KiB/fr", "+RSS MiB");
+  size_t best = 0;
+  for (size_t i = 0; i < results.size(); ++i) {
+    const ConfigResult& r = results[i];
+    const double nf = static_cast<double>(r.frames);
+    std::printf("  %-34s %7.1f %9.2f %9.2f %9.2f %9.2f %9.2f %9.1f %9.1f\n", r.config.name.c_str(),
+                r.fps, r.cpu_ms_per_frame, r.latency.mean, r.latency.p99,
+                static_cast<double>(r.allocs.news) / nf, static_cast<double>(r.allocs.mallocs) / nf,
+                static_cast<double>(r.allocs.bytes) / nf / 1024.0, r.peak_rss_mb - r.rss_before_mb);
+    if (r.fps > results[best].fps) best = i;
+  }
+  std::printf(
+      "  (+RSS: peak RSS during the configuration minus RSS before its segmenters "
+      "were created)\n");
+  std::printf(
+      "  (CPU ms/fr: process CPU time per frame; %d cores could process at most "
+      "%d x 1000 / (CPU ms) frames per second)\n",
+      threads, threads);
+  std::printf("  best: %s (%.1f FPS)\n", results[best].config.name.c_str(), results[best].fps);
+  std::printf("  supervoxels per frame %.0f, objects per frame %.1f\n", results[0].supervoxels_mean,
+              results[0].objects_mean);
+
+  std::printf(
+      "\nMemory: RSS after loading frames %.1f MiB (frames hold %.1f MiB); peak during "
+      "the segmenter runs (VmHWM%s, max over configurations) %.1f MiB, i.e. %.1f MiB above the "
+      "loaded state; "
+      "RSS at the end %.1f MiB; ru_maxrss %.1f MiB\n",
+      after_load.vm_rss_mb, frames_mb, hwm_reset ? ", reset per configuration" : "",
+      after_ours.vm_hwm_mb, after_ours.vm_hwm_mb - after_load.vm_rss_mb, after_ours.vm_rss_mb,
+      maxrss_ours);
+
+#if CLUTTERSEG_BENCH_HAVE_PCL
+  PclResult pcl;
+  const bool pcl_reset = opt.pcl && ResetPeakRss();
+  if (opt.pcl) {
+    std::fprintf(stderr, "running: PCL supervoxels + LCCP\n");
+    pcl = RunPcl(frames, opt.pcl_repeat);
+    pcl.peak_rss_mb = ReadProcStatus().vm_hwm_mb;
+    const double ours_pool = results[0].stages.back().mean;
+    const double ours_1t = results.size() > 1 ? results[1].stages.back().mean : ours_pool;
+    std::printf("\nPCL supervoxels + LCCP (tools/pcl_baseline defaults, single thread), ms:\n");
+    std::printf("  %-18s %9s %9s %9s %9s %9s\n", "stage", "mean", "p50", "p90", "p99", "max");
+    const std::pair<const char*, const Summary*> rows[] = {
+        {"supervoxels", &pcl.supervoxels}, {"lccp", &pcl.lccp}, {"total", &pcl.total}};
+    for (const auto& [name, s] : rows) {
+      std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", name, s->mean, s->p50, s->p90, s->p99,
+                  s->max);
+    }
+    std::printf("  %.0f supervoxels, %.1f segments per frame; peak RSS%s %.1f MiB\n",
+                pcl.supervoxels_mean_count, pcl.segments_mean, pcl_reset ? " (reset before)" : "",
+                pcl.peak_rss_mb);
+    std::printf(
+        "  speed ratio PCL / ours (mean total): %.1fx vs %d threads, %.1fx vs 1 thread; "
+        "PCL FPS %.1f vs best ours %.1f (%.1fx)\n",
+        pcl.total.mean / ours_pool, threads, pcl.total.mean / ours_1t, 1000.0 / pcl.total.mean,
+        results[best].fps, results[best].fps / (1000.0 / pcl.total.mean));
+    const double ours_cpu =
+        results.size() > 1 ? results[1].cpu_ms_per_frame : results[0].cpu_ms_per_frame;
+    std::printf(
+        "  CPU time per frame: PCL %.1f ms, ours %.1f ms (1 thread): %.1fx (robust "
+        "to machine load)\n",
+        pcl.cpu_ms_per_frame, ours_cpu, pcl.cpu_ms_per_frame / ours_cpu);
+  }
+#endif
+  const std::string load_end = LoadAverage();
+
+  core::JsonWriter w;
+  w.BeginObject();
+  w.Field("tool", "clutterseg-bench").Field("source", frames.source);
+  w.Field("frames", static_cast<uint64_t>(frames.size())).Field("repeat", opt.repeat);
+  w.Field("warmup", opt.warmup).Field("threads", threads);
+  w.Key("overrides").BeginArray();
+  for (const std::string& o : opt.overrides) w.Value(o);
+  w.EndArray();
+  w.Field("load_avg_start", load_start).Field("load_avg_end", load_end);
+  w.Field("supervoxels_mean", results[0].supervoxels_mean);
+  w.Field("objects_mean", results[0].objects_mean);
+  w.Key("configs").BeginArray();
+  for (const ConfigResult& r : results) {
+    const double nf = static_cast<double>(r.frames);
+    w.BeginObject();
+    w.Field("name", r.config.name).Field("lanes", r.config.lanes);
+    w.Field("shared_pool", r.config.shared_pool).Field("pool_threads", r.config.pool_threads);
+    w.Field("fps", r.fps).Field("cpu_ms_per_frame", r.cpu_ms_per_frame);
+    w.Field("cpu_bound_fps", 1000.0 * threads / r.cpu_ms_per_frame);
+    w.Field("news_per_frame", static_cast<double>(r.allocs.news) / nf);
+    w.Field("mallocs_per_frame", static_cast<double>(r.allocs.mallocs) / nf);
+    w.Field("alloc_bytes_per_frame", static_cast<double>(r.allocs.bytes) / nf);
+    w.Field("rss_before_mb", r.rss_before_mb).Field("peak_rss_mb", r.peak_rss_mb);
+    w.Field("peak_rss_above_before_mb", r.peak_rss_mb - r.rss_before_mb);
+    WriteSummary(&w, "latency_ms", r.latency);
+    w.Key("stages_ms").BeginObject();
+    for (size_t i = 0; i < Stages().size(); ++i) WriteSummary(&w, Stages()[i].name, r.stages[i]);
+    w.EndObject();
+    w.EndObject();
+  }
+  w.EndArray();
+  w.Field("best_config", results[best].config.name).Field("best_fps", results[best].fps);
+  w.Key("memory_mb").BeginObject();
+  w.Field("frames_heap", frames_mb).Field("rss_after_load", after_load.vm_rss_mb);
+  w.Field("peak_rss_segmenter", after_ours.vm_hwm_mb).Field("peak_reset", hwm_reset);
+  w.Field("peak_above_loaded", after_ours.vm_hwm_mb - after_load.vm_rss_mb);
+  w.Field("rss_end", after_ours.vm_rss_mb).Field("ru_maxrss", maxrss_ours);
+  w.EndObject();
+#if CLUTTERSEG_BENCH_HAVE_PCL
+  if (opt.pcl) {
+    w.Key("pcl").BeginObject();
+    WriteSummary(&w, "supervoxels_ms", pcl.supervoxels);
+    WriteSummary(&w, "lccp_ms", pcl.lccp);
+    WriteSummary(&w, "total_ms", pcl.total);
+    w.Field("supervoxels_mean", pcl.supervoxels_mean_count);
+    w.Field("segments_mean", pcl.segments_mean).Field("peak_rss_mb", pcl.peak_rss_mb);
+    const double ours_pool = results[0].stages.back().mean;
+    const double ours_1t = results.size() > 1 ? results[1].stages.back().mean : ours_pool;
+    w.Field("ratio_vs_pool", pcl.total.mean / ours_pool);
+    w.Field("ratio_vs_1thread", pcl.total.mean / ours_1t);
+    w.Field("ratio_fps_best", results[best].fps * pcl.total.mean / 1000.0);
+    const double ours_cpu =
+        results.size() > 1 ? results[1].cpu_ms_per_frame : results[0].cpu_ms_per_frame;
+    w.Field("cpu_ms_per_frame", pcl.cpu_ms_per_frame);
+    w.Field("ratio_cpu", pcl.cpu_ms_per_frame / ours_cpu);
+    w.EndObject();
+  }
+#endif
+  w.EndObject();
+  const std::string json = w.str();
+  std::printf("%s\n", json.c_str());
+  if (!opt.json_path.empty()) {
+    std::ofstream out(opt.json_path, std::ios::trunc);
+    out << json << '\n';
+    if (!out) throw std::runtime_error("cannot write JSON file '" + opt.json_path + "'");
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace clutterseg::bench
+
+int main(int argc, char** argv) {
+  try {
+    return clutterseg::bench::Run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "clutterseg-bench: error: " << e.what() << '\n';
+    return 1;
+  }
+}

@@ -1,0 +1,106 @@
+#include "tools/bench/frame_set.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <stdexcept>
+
+#include "core/thread_pool.h"
+#include "io/pcd.h"
+#include "synth/internal/random.h"
+#include "synth/renderer.h"
+#include "synth/scene.h"
+#include "synth/sensor_params.h"
+
+namespace clutterseg::bench {
+
+namespace fs = std::filesystem;
+
+size_t FrameSet::HeapBytes() const {
+  size_t bytes = 0;
+  for (const core::PointCloud& c : clouds) {
+    bytes += c.xyz.capacity() * sizeof(core::Vec3f) + c.rgba.capacity() * sizeof(uint32_t) +
+             c.label.capacity() * sizeof(uint32_t);
+  }
+  return bytes;
+}
+
+bool NaturalLess(const std::string& a, const std::string& b) {
+  size_t i = 0;
+  size_t j = 0;
+  while (i < a.size() && j < b.size()) {
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
+    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    if (da && db) {
+      size_t ie = i;
+      size_t je = j;
+      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
+      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
+      size_t zi = i;
+      size_t zj = j;
+      while (zi + 1 < ie && a[zi] == '0') ++zi;
+      while (zj + 1 < je && b[zj] == '0') ++zj;
+      if (ie - zi != je - zj) return ie - zi < je - zj;
+      const int c = a.compare(zi, ie - zi, b, zj, je - zj);
+      if (c != 0) return c < 0;
+      i = ie;
+      j = je;
+    } else {
+      if (a[i] != b[j]) return a[i] < b[j];
+      ++i;
+      ++j;
+    }
+  }
+  return a.size() - i < b.size() - j;
+}
+
+FrameSet LoadPcdDirectory(const std::string& dir, size_t max_frames) {
+  if (!fs::is_directory(dir)) throw std::runtime_error("'" + dir + "' is not a directory");
+  std::vector<std::string> names;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir)) {
+    if (e.is_regular_file() && e.path().extension() == ".pcd") {
+      names.push_back(e.path().filename().string());
+    }
+  }
+  std::sort(names.begin(), names.end(), NaturalLess);
+  if (names.empty()) throw std::runtime_error("no *.pcd files in directory '" + dir + "'");
+  if (max_frames > 0 && names.size() > max_frames) names.resize(max_frames);
+  FrameSet set;
+  set.source = dir;
+  set.intrinsics = core::DefaultKinectIntrinsics();
+  set.clouds.resize(names.size());
+  for (size_t i = 0; i < names.size(); ++i) {
+    set.clouds[i] = io::ReadPcd((fs::path(dir) / names[i]).string());
+    set.clouds[i].label.clear();
+    set.clouds[i].label.shrink_to_fit();
+  }
+  set.names = std::move(names);
+  return set;
+}
+
+FrameSet RenderSyntheticFrames(int count, uint64_t seed, int threads) {
+  FrameSet set;
+  set.source = "synthetic(seed=" + std::to_string(seed) + ")";
+  synth::SceneParams scene_params;
+  set.intrinsics = scene_params.intrinsics;
+  const synth::SensorParams sensor;
+  core::ThreadPool pool(threads);
+  synth::RenderedFrame frame;
+  for (int s = 0; s < count; ++s) {
+    const uint64_t scene_seed = synth::internal::HashCounter(seed, static_cast<uint64_t>(s), 0);
+    const uint64_t noise_seed = synth::internal::HashCounter(seed, static_cast<uint64_t>(s), 1);
+    const synth::Scene scene = synth::GenerateScene(scene_params, scene_seed);
+    synth::RenderScene(scene, set.intrinsics, sensor, noise_seed, &frame, &pool);
+    core::PointCloud cloud;
+    synth::ToPointCloud(frame, &cloud);
+    cloud.label.clear();
+    cloud.label.shrink_to_fit();
+    char name[32];
+    std::snprintf(name, sizeof(name), "scene_%04d", s);
+    set.names.emplace_back(name);
+    set.clouds.push_back(std::move(cloud));
+  }
+  return set;
+}
+
+}  // namespace clutterseg::bench

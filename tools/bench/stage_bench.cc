@@ -1,0 +1,315 @@
+// Google Benchmark microbenchmarks of each segmentation stage on one real mOSD frame (skipped
+// when the shared data is absent) and one synthetic frame, with 1 and 2 pool threads.
+//
+//   clutterseg_stage_bench [--benchmark_filter=...]   (CLUTTERSEG_BENCH_PCD=FILE overrides
+//                                                      the mOSD frame)
+// Arguments of every benchmark: frame (0 = mOSD, 1 = synthetic), pool threads.
+
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+#include "core/point_cloud.h"
+#include "core/thread_pool.h"
+#include "geometry/voxel_grid.h"
+#include "graph/linkage.h"
+#include "graph/patch_features.h"
+#include "io/pcd.h"
+#include "optimize/planes.h"
+#include "pipeline/objects.h"
+#include "pipeline/refine.h"
+#include "pipeline/segmenter.h"
+#include "pipeline/segmenter_params.h"
+#include "supervoxel/supervoxelizer.h"
+#include "tools/bench/frame_set.h"
+#if CLUTTERSEG_BENCH_HAVE_DAEMON
+#include "clutterseg/label_image_t.hpp"
+#include "clutterseg/objects_t.hpp"
+#include "daemon/messages.h"
+#endif
+
+namespace clutterseg::bench {
+namespace {
+
+constexpr int kMosdFrame = 0;
+
+// The input of one frame and every stage's output, computed once per (frame, threads).
+struct StageInputs {
+  pipeline::SegmenterParams params;
+  core::CameraIntrinsics intrinsics;
+  core::PointCloud cloud;  // as loaded
+  core::PointCloud work;   // restricted to the depth range, as the Segmenter does
+  std::unique_ptr<core::ThreadPool> pool;
+  supervoxel::Supervoxels sv;
+  graph::PatchFeatures features;
+  graph::LinkageResult link;
+  optimize::PlaneLabeling planes;
+  pipeline::SegmentationResult result;
+};
+
+std::string MosdFramePath() {
+  if (const char* env = std::getenv("CLUTTERSEG_BENCH_PCD")) return env;
+  return std::string(CLUTTERSEG_DATA_DIR) + "/mosd-learn/learn10.pcd";
+}
+
+// Returns null (and sets the skip message) when the frame is unavailable.
+StageInputs* GetInputs(benchmark::State& state) {
+  static std::map<std::pair<int64_t, int64_t>, std::unique_ptr<StageInputs>> cache;
+  const int64_t frame = state.range(0);
+  const int64_t threads = state.range(1);
+  auto& slot = cache[{frame, threads}];
+  if (slot) return slot.get();
+  auto in = std::make_unique<StageInputs>();
+  if (frame == kMosdFrame) {
+    const std::string path = MosdFramePath();
+    if (!std::filesystem::exists(path)) {
+      state.SkipWithError(("mOSD frame not found: " + path).c_str());
+      return nullptr;
+    }
+    in->cloud = io::ReadPcd(path);
+    in->intrinsics = core::DefaultKinectIntrinsics();
+  } else {
+    FrameSet set = RenderSyntheticFrames(1, 7, 0);
+    in->cloud = std::move(set.clouds[0]);
+    in->intrinsics = set.intrinsics;
+  }
+  if (threads > 1) in->pool = std::make_unique<core::ThreadPool>(static_cast<int>(threads));
+  core::ThreadPool* pool = in->pool.get();
+
+  const float zmin = in->params.objects.min_depth_m;
+  const float zmax = in->params.objects.max_depth_m;
+  in->work.width = in->cloud.width;
+  in->work.height = in->cloud.height;
+  in->work.xyz = in->cloud.xyz;
+  for (core::Vec3f& p : in->work.xyz) {
+    if (!core::IsValid(p) || p.z < zmin || p.z > zmax) {
+      p = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+    }
+  }
+  supervoxel::Supervoxelizer svz(in->params.supervoxel);
+  svz.Compute(in->work, pool, &in->sv);
+  graph::PatchFeatureExtractor fx(pool);
+  fx.Compute(in->work, in->sv, &in->features);
+  graph::Linkage linkage(in->params.linkage, pool);
+  linkage.Compute(in->sv, in->features, &in->link);
+  optimize::PlaneLabeler labeler(in->params.planes);
+  labeler.Compute(in->sv, in->features, &in->planes);
+  pipeline::Segmenter segmenter(in->params, pool);
+  segmenter.Process(in->cloud, in->intrinsics, &in->result);
+  slot = std::move(in);
+  return slot.get();
+}
+
+void SetLabel(benchmark::State& state, const StageInputs& in) {
+  state.SetLabel((state.range(0) == kMosdFrame ? "mosd" : "synthetic") + std::string("/t") +
+                 std::to_string(state.range(1)) + " sv=" + std::to_string(in.sv.size()));
+}
+
+void BM_Voxelize(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  geometry::VoxelGridParams vp;
+  vp.voxel_resolution_m = in->params.supervoxel.voxel_resolution_m;
+  vp.use_single_camera_transform = in->params.supervoxel.use_single_camera_transform;
+  vp.max_depth_m = in->params.supervoxel.max_depth_m;
+  geometry::Voxelizer voxelizer(vp);
+  geometry::VoxelGrid grid;
+  for (auto _ : state) {
+    voxelizer.Voxelize(in->work, in->pool.get(), &grid);
+    voxelizer.ComputeAdjacency(in->pool.get(), &grid);
+    benchmark::DoNotOptimize(grid.adjacency.data());
+  }
+  state.counters["voxels"] = static_cast<double>(grid.size());
+  SetLabel(state, *in);
+}
+
+void BM_Normals(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  geometry::VoxelGridParams vp;
+  vp.voxel_resolution_m = in->params.supervoxel.voxel_resolution_m;
+  vp.use_single_camera_transform = in->params.supervoxel.use_single_camera_transform;
+  vp.max_depth_m = in->params.supervoxel.max_depth_m;
+  geometry::Voxelizer voxelizer(vp);
+  geometry::VoxelGrid grid;
+  voxelizer.Voxelize(in->work, in->pool.get(), &grid);
+  voxelizer.ComputeAdjacency(in->pool.get(), &grid);
+  for (auto _ : state) {
+    voxelizer.ComputeNormals(in->pool.get(), &grid);
+    benchmark::DoNotOptimize(grid.normal.data());
+  }
+  SetLabel(state, *in);
+}
+
+// The whole supervoxelizer; its sub-steps are reported as counters (ms, last iteration).
+void BM_Supervoxels(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  supervoxel::Supervoxelizer svz(in->params.supervoxel);
+  supervoxel::Supervoxels sv;
+  for (auto _ : state) {
+    svz.Compute(in->work, in->pool.get(), &sv);
+    benchmark::DoNotOptimize(sv.pixel_label.data());
+  }
+  const supervoxel::SupervoxelTimings& t = svz.timings();
+  state.counters["voxelize_ms"] = t.voxelize_ms;
+  state.counters["adjacency_ms"] = t.adjacency_ms;
+  state.counters["normals_ms"] = t.normals_ms;
+  state.counters["seeding_ms"] = t.seeding_ms;
+  state.counters["growth_ms"] = t.growth_ms;
+  state.counters["output_ms"] = t.output_ms;
+  SetLabel(state, *in);
+}
+
+void BM_Features(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  graph::PatchFeatureExtractor fx(in->pool.get());
+  graph::PatchFeatures features;
+  for (auto _ : state) {
+    fx.Compute(in->work, in->sv, &features);
+    benchmark::DoNotOptimize(features.normal.data());
+  }
+  SetLabel(state, *in);
+}
+
+void BM_Linkage(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  graph::Linkage linkage(in->params.linkage, in->pool.get());
+  graph::LinkageResult link;
+  for (auto _ : state) {
+    linkage.Compute(in->sv, in->features, &link);
+    benchmark::DoNotOptimize(link.segment.data());
+  }
+  state.counters["segments"] = link.num_segments;
+  SetLabel(state, *in);
+}
+
+void BM_PlanesExpansion(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  optimize::PlaneLabeler labeler(in->params.planes);
+  optimize::PlaneLabeling planes;
+  for (auto _ : state) {
+    labeler.Compute(in->sv, in->features, &planes);
+    benchmark::DoNotOptimize(planes.patch_plane.data());
+  }
+  state.counters["planes"] = static_cast<double>(planes.planes.size());
+  state.counters["cycles"] = planes.expansion_cycles;
+  SetLabel(state, *in);
+}
+
+void BM_RefineObjects(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  pipeline::Refiner refiner;
+  core::LabelImage labels;
+  std::vector<pipeline::Plane> planes;
+  std::vector<pipeline::Object> objects;
+  for (auto _ : state) {
+    labels.Reset(in->work.width, in->work.height, 0u);
+    const uint32_t n = refiner.Run(in->params.objects, in->intrinsics, in->work, in->sv,
+                                   in->features, in->link, in->planes, &labels, &planes);
+    pipeline::ComputeObjects(in->cloud, labels, n, planes, &objects);
+    benchmark::DoNotOptimize(objects.data());
+  }
+  state.counters["objects"] = static_cast<double>(objects.size());
+  SetLabel(state, *in);
+}
+
+void BM_Segmenter(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  pipeline::Segmenter segmenter(in->params, in->pool.get());
+  pipeline::SegmentationResult result;
+  for (auto _ : state) {
+    segmenter.Process(in->cloud, in->intrinsics, &result);
+    benchmark::DoNotOptimize(result.labels.data.data());
+  }
+  state.counters["objects"] = static_cast<double>(result.objects.size());
+  SetLabel(state, *in);
+}
+
+#if CLUTTERSEG_BENCH_HAVE_DAEMON
+daemon::FrameInfo MakeInfo(const StageInputs& in) {
+  daemon::FrameInfo info;
+  info.utime = 1;
+  info.frame_seq = 1;
+  info.camera_name = "camera";
+  info.intrinsics = in.intrinsics;
+  return info;
+}
+
+// objects_t conversion and LCM encoding (what the daemon does per frame before publish).
+void BM_EncodeObjects(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  const daemon::FrameInfo info = MakeInfo(*in);
+  clutterseg::objects_t msg;
+  std::vector<uint8_t> buf;
+  for (auto _ : state) {
+    daemon::ToObjectsMessage(in->result, info, &msg);
+    const int size = msg.getEncodedSize();
+    if (buf.size() < static_cast<size_t>(size)) buf.resize(static_cast<size_t>(size));
+    benchmark::DoNotOptimize(msg.encode(buf.data(), 0, size));
+  }
+  state.counters["bytes"] = msg.getEncodedSize();
+  SetLabel(state, *in);
+}
+
+// label_image_t for each compression (range(2): 0 none, 1 RLE, 2 zlib) and LCM encoding.
+void BM_EncodeLabels(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  const daemon::FrameInfo info = MakeInfo(*in);
+  const config::LabelCompression kinds[] = {config::LabelCompression::kNone,
+                                            config::LabelCompression::kRle,
+                                            config::LabelCompression::kZlib};
+  const config::LabelCompression compression = kinds[state.range(2)];
+  clutterseg::label_image_t msg;
+  std::vector<uint8_t> buf;
+  for (auto _ : state) {
+    daemon::EncodeLabelImage(in->result.labels, info, compression, &msg);
+    const int size = msg.getEncodedSize();
+    if (buf.size() < static_cast<size_t>(size)) buf.resize(static_cast<size_t>(size));
+    benchmark::DoNotOptimize(msg.encode(buf.data(), 0, size));
+  }
+  state.counters["bytes"] = msg.getEncodedSize();
+  SetLabel(state, *in);
+  state.SetLabel(state.range(2) == 0 ? "none" : state.range(2) == 1 ? "rle" : "zlib");
+}
+#endif
+
+void StageArgs(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"frame", "threads"})->ArgsProduct({{0, 1}, {1, 2}});
+  b->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+BENCHMARK(BM_Voxelize)->Apply(StageArgs);
+BENCHMARK(BM_Normals)->Apply(StageArgs);
+BENCHMARK(BM_Supervoxels)->Apply(StageArgs);
+BENCHMARK(BM_Features)->Apply(StageArgs);
+BENCHMARK(BM_Linkage)->Apply(StageArgs);
+BENCHMARK(BM_PlanesExpansion)->Apply(StageArgs);
+BENCHMARK(BM_RefineObjects)->Apply(StageArgs);
+BENCHMARK(BM_Segmenter)->Apply(StageArgs);
+#if CLUTTERSEG_BENCH_HAVE_DAEMON
+BENCHMARK(BM_EncodeObjects)->Apply(StageArgs)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_EncodeLabels)
+    ->ArgNames({"frame", "threads", "compression"})
+    ->ArgsProduct({{0, 1}, {1}, {0, 1, 2}})
+    ->Unit(benchmark::kMicrosecond)
+    ->UseRealTime();
+#endif
+
+}  // namespace
+}  // namespace clutterseg::bench
+
+BENCHMARK_MAIN();
