@@ -39,7 +39,7 @@ struct DaemonConfig {
   bool publish_labels{true};                               ///< publish a label_image_t per frame
   LabelCompression label_compression{LabelCompression::kZlib};
 
-  int queue_capacity{4};        ///< frames waiting between capture and processing (drop-oldest)
+  int queue_capacity{2};        ///< frames waiting between capture and processing (drop-oldest)
   int threads{0};               ///< worker threads for segmentation; 0 = number of cores
   int pipeline_depth{2};        ///< frames segmented concurrently (one Segmenter each)
   int64_t max_frames{0};        ///< stop after publishing this many frames; 0 = no limit

@@ -168,7 +168,5 @@ std::vector<std::string> NetNamespace::Exec(const std::vector<std::string>& argv
 // libOpenNI2 (a prebuilt Debian library) unlocks mutexes from other threads during its own
 // initialization; ThreadSanitizer cannot see into it, so its interceptor calls are ignored.
 // Our own code stays fully checked.
-extern "C" const char* __tsan_default_suppressions() {
-  return "called_from_lib:libOpenNI2.so.0\n";
-}
+extern "C" const char* __tsan_default_suppressions() { return "called_from_lib:libOpenNI2.so.0\n"; }
 #endif
