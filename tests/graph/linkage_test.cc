@@ -67,6 +67,7 @@ TEST(IsConvexConnection, BoxEdgeIsConvex) {
 
 TEST(IsConvexConnection, TableCreaseIsConcave) {
   LinkageParams p;
+  p.concavity_tolerance_deg = 10.f;  // LCCP's value
   // Front face (z = 1.0) standing on the table (y = 0.3): a concave crease.
   EXPECT_FALSE(IsConvexConnection({0, 0.28f, 1.0f}, kFacing, {0, 0.3f, 0.98f}, kUp, p));
   EXPECT_FALSE(IsConvexConnection({0, 0.3f, 0.98f}, kUp, {0, 0.28f, 1.0f}, kFacing, p));
@@ -146,6 +147,7 @@ TEST(Linkage, TypeFilterIsAMajorityVote) {
   EXPECT_EQ(r.filtered_type[6], PatchType::kPlanar);
   LinkageParams no_filter;
   no_filter.use_type_filter = false;
+  no_filter.cut_on_type_change = true;  // the paper's rule
   Linkage(no_filter).Compute(g.sv, g.f, &r);
   EXPECT_EQ(r.filtered_type[0], PatchType::kNonPlanar);
   EXPECT_EQ(r.edge_kept[0], 0);  // 0-1: types differ -> cut

@@ -215,16 +215,19 @@ ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& 
   const size_t total = n * static_cast<size_t>(repeat);
   std::vector<Sample> samples(total);
 
-  // Jobs are frame indices 0..count-1 (modulo n), taken by whichever lane is free, as the
-  // daemon's dispatcher does.
+  // Timed jobs are frame indices 0..count-1 (modulo n), taken by whichever lane is free, as
+  // the daemon's dispatcher does.
   auto run_jobs = [&](size_t count, bool record, double* wall_ms, double* cpu_ms,
                       AllocCounts* allocs) {
     std::atomic<size_t> next{0};
     std::vector<std::exception_ptr> errors(static_cast<size_t>(config.lanes));
     auto lane_loop = [&](int l) {
       try {
+        // Warm-up: every lane processes every frame, so that each Segmenter's buffers have
+        // grown to the largest frame before the timed loop.
+        size_t own = 0;
         for (;;) {
-          const size_t j = next.fetch_add(1);
+          const size_t j = record ? next.fetch_add(1) : own++;
           if (j >= count) return;
           const size_t f = j % n;
           const Clock::time_point t0 = Clock::now();
