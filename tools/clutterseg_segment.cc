@@ -14,6 +14,7 @@
 
 #include "config/daemon_config.h"
 #include "core/json_writer.h"
+#include "core/text_and_color.h"
 #include "core/thread_pool.h"
 #include "io/pcd.h"
 #include "io/png_io.h"
@@ -186,7 +187,9 @@ int main(int argc, char** argv) {
         }
       }
     }
-    std::sort(inputs.begin(), inputs.end());
+    std::sort(inputs.begin(), inputs.end(), [](const fs::path& a, const fs::path& b) {
+      return core::NaturalLess(a.filename().string(), b.filename().string());
+    });
     if (inputs.empty()) {
       std::cerr << "clutterseg-segment: " << opt.input << ": no .pcd or .png files\n";
       return kExitData;
@@ -242,7 +245,8 @@ int main(int argc, char** argv) {
         j.Field("normals_ms", t.normals_ms).Field("supervoxels_ms", t.supervoxels_ms);
         j.Field("features_ms", t.features_ms).Field("linkage_ms", t.linkage_ms);
         j.Field("planes_ms", t.planes_ms).Field("objects_ms", t.objects_ms);
-        j.Field("total_ms", t.total_ms).Field("objects", static_cast<uint64_t>(result.objects.size()));
+        j.Field("total_ms", t.total_ms)
+            .Field("objects", static_cast<uint64_t>(result.objects.size()));
         j.EndObject();
         times << j.str() << "\n";
       }

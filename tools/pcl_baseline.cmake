@@ -15,7 +15,7 @@ target_include_directories(clutterseg_pcl_baseline SYSTEM PRIVATE ${PCL_INCLUDE_
 target_compile_definitions(clutterseg_pcl_baseline PRIVATE ${PCL_DEFINITIONS})
 
 add_executable(clutterseg-pcl-baseline ${CMAKE_CURRENT_LIST_DIR}/pcl_baseline/main.cc)
-target_link_libraries(clutterseg-pcl-baseline PRIVATE clutterseg_pcl_baseline CLI11::CLI11
+target_link_libraries(clutterseg-pcl-baseline PRIVATE clutterseg_pcl_baseline clutterseg::core CLI11::CLI11
                       pcl_common)
 target_include_directories(clutterseg-pcl-baseline SYSTEM PRIVATE ${PCL_INCLUDE_DIRS})
 

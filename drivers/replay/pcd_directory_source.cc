@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/text_and_color.h"
 #include "io/pcd.h"
 
 namespace clutterseg::drivers {
@@ -16,41 +17,9 @@ namespace fs = std::filesystem;
 
 namespace internal {
 
-namespace {
-bool NaturalLess(const std::string& a, const std::string& b) {
-  size_t i = 0;
-  size_t j = 0;
-  while (i < a.size() && j < b.size()) {
-    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
-    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
-    if (da && db) {
-      size_t ie = i;
-      size_t je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      // Compare the numbers without leading zeros: longer is larger, then lexicographic.
-      size_t is = i;
-      size_t js = j;
-      while (is + 1 < ie && a[is] == '0') ++is;
-      while (js + 1 < je && b[js] == '0') ++js;
-      if (ie - is != je - js) return ie - is < je - js;
-      const int c = a.compare(is, ie - is, b, js, je - js);
-      if (c != 0) return c < 0;
-      if (ie - i != je - j) return ie - i < je - j;  // fewer leading zeros first
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  return a.size() - i < b.size() - j;
-}
-}  // namespace
-
 void NaturalSort(std::vector<std::string>* names) {
-  std::sort(names->begin(), names->end(), NaturalLess);
+  std::sort(names->begin(), names->end(),
+            [](const std::string& a, const std::string& b) { return core::NaturalLess(a, b); });
 }
 
 }  // namespace internal

@@ -12,12 +12,12 @@ namespace clutterseg::core {
 /// Frames live in a preallocated pool and are reused; assigning one to another reuses the
 /// destination's buffers.
 struct RgbdFrame {
-  int64_t utime{0};        ///< capture time, microseconds (device or file clock)
-  uint64_t sequence{0};    ///< frame number from the source, starting at 0
+  int64_t utime{0};          ///< capture time, microseconds (device or file clock)
+  uint64_t sequence{0};      ///< frame number from the source, starting at 0
   int64_t receive_utime{0};  ///< steady-clock time the frame entered the process, microseconds
   CameraIntrinsics intrinsics;
-  DepthImage depth;        ///< millimetres, 0 = invalid
-  ColorImage color;        ///< empty when the source has no colour
+  DepthImage depth;  ///< millimetres, 0 = invalid
+  ColorImage color;  ///< empty when the source has no colour
   std::string camera_name{"camera"};
 };
 

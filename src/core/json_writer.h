@@ -13,10 +13,28 @@ namespace clutterseg::core {
 /// compact, valid JSON; non-finite numbers are written as null. Not thread-safe.
 class JsonWriter {
  public:
-  JsonWriter& BeginObject() { Sep(); os_ << '{'; first_.push_back(true); return *this; }
-  JsonWriter& EndObject() { os_ << '}'; first_.pop_back(); return *this; }
-  JsonWriter& BeginArray() { Sep(); os_ << '['; first_.push_back(true); return *this; }
-  JsonWriter& EndArray() { os_ << ']'; first_.pop_back(); return *this; }
+  JsonWriter& BeginObject() {
+    Sep();
+    os_ << '{';
+    first_.push_back(true);
+    return *this;
+  }
+  JsonWriter& EndObject() {
+    os_ << '}';
+    first_.pop_back();
+    return *this;
+  }
+  JsonWriter& BeginArray() {
+    Sep();
+    os_ << '[';
+    first_.push_back(true);
+    return *this;
+  }
+  JsonWriter& EndArray() {
+    os_ << ']';
+    first_.pop_back();
+    return *this;
+  }
   /// Writes `"name":`; the next value call writes the value.
   JsonWriter& Key(std::string_view name) {
     Sep();
@@ -25,9 +43,17 @@ class JsonWriter {
     after_key_ = true;
     return *this;
   }
-  JsonWriter& Value(std::string_view s) { Sep(); WriteString(s); return *this; }
+  JsonWriter& Value(std::string_view s) {
+    Sep();
+    WriteString(s);
+    return *this;
+  }
   JsonWriter& Value(const char* s) { return Value(std::string_view(s)); }
-  JsonWriter& Value(bool b) { Sep(); os_ << (b ? "true" : "false"); return *this; }
+  JsonWriter& Value(bool b) {
+    Sep();
+    os_ << (b ? "true" : "false");
+    return *this;
+  }
   JsonWriter& Value(double d) {
     Sep();
     if (std::isfinite(d)) {
@@ -39,12 +65,23 @@ class JsonWriter {
     return *this;
   }
   JsonWriter& Value(float f) { return Value(static_cast<double>(f)); }
-  JsonWriter& Value(int64_t i) { Sep(); os_ << i; return *this; }
-  JsonWriter& Value(uint64_t i) { Sep(); os_ << i; return *this; }
+  JsonWriter& Value(int64_t i) {
+    Sep();
+    os_ << i;
+    return *this;
+  }
+  JsonWriter& Value(uint64_t i) {
+    Sep();
+    os_ << i;
+    return *this;
+  }
   JsonWriter& Value(int i) { return Value(static_cast<int64_t>(i)); }
   JsonWriter& Value(uint32_t i) { return Value(static_cast<uint64_t>(i)); }
   template <typename T>
-  JsonWriter& Field(std::string_view name, const T& v) { Key(name); return Value(v); }
+  JsonWriter& Field(std::string_view name, const T& v) {
+    Key(name);
+    return Value(v);
+  }
   /// Writes a fixed-size numeric array.
   JsonWriter& Array(std::string_view name, std::initializer_list<double> values) {
     Key(name);
@@ -69,11 +106,21 @@ class JsonWriter {
     os_ << '"';
     for (char c : s) {
       switch (c) {
-        case '"': os_ << "\\\""; break;
-        case '\\': os_ << "\\\\"; break;
-        case '\n': os_ << "\\n"; break;
-        case '\t': os_ << "\\t"; break;
-        case '\r': os_ << "\\r"; break;
+        case '"':
+          os_ << "\\\"";
+          break;
+        case '\\':
+          os_ << "\\\\";
+          break;
+        case '\n':
+          os_ << "\\n";
+          break;
+        case '\t':
+          os_ << "\\t";
+          break;
+        case '\r':
+          os_ << "\\r";
+          break;
         default:
           if (static_cast<unsigned char>(c) < 0x20) {
             char buf[8];

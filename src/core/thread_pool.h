@@ -40,7 +40,9 @@ class ThreadPool {
   void ParallelFor(size_t n, size_t grain, const std::function<void(size_t, size_t)>& fn);
 
   /// Number of chunks ParallelFor uses for (n, grain).
-  static size_t NumChunks(size_t n, size_t grain) { return grain == 0 ? 0 : (n + grain - 1) / grain; }
+  static size_t NumChunks(size_t n, size_t grain) {
+    return grain == 0 ? 0 : (n + grain - 1) / grain;
+  }
 
   /// Queues `task` to run on a worker (or inline when the pool has no worker) and returns its
   /// future; an exception thrown by the task is stored in the future.

@@ -7,13 +7,13 @@ struct LinkageParams {
   /// Below this normal angle a concave edge still counts as convex, degrees (LCCP and the
   /// paper: 10; 35 measured best, docs/method.md).
   float concavity_tolerance_deg{35.0f};
-  bool use_sanity_criterion{true};       ///< LCCP's sanity check on the connection direction
-  bool use_extended_convexity{false};    ///< an edge is convex only if common neighbours agree
+  bool use_sanity_criterion{true};     ///< LCCP's sanity check on the connection direction
+  bool use_extended_convexity{false};  ///< an edge is convex only if common neighbours agree
   /// With extended convexity: a convex edge stays convex only when at least this many common
   /// neighbours form convex triangles with it (LCCP's k; edges without common neighbours are
   /// then cut).
   int extended_convexity_k{1};
-  bool use_type_filter{true};      ///< the LAL majority filter on patch types
+  bool use_type_filter{true};  ///< the LAL majority filter on patch types
   /// Cut edges whose (filtered) patch types differ (the paper: true; false measured best).
   bool cut_on_type_change{false};
   float convexity_epsilon{0.0f};   ///< slack on (n_i - n_j) . d > 0, dimensionless

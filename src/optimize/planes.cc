@@ -67,8 +67,8 @@ void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec
 }
 
 void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
-                                  float tolerance_scale, const core::Vec3f* center,
-                                  float radius_m, std::vector<uint32_t>* inliers) const {
+                                  float tolerance_scale, const core::Vec3f* center, float radius_m,
+                                  std::vector<uint32_t>* inliers) const {
   inliers->clear();
   const float rho = params_.inlier_distance_m * tolerance_scale;
   const float min_cos = static_cast<float>(
@@ -120,8 +120,7 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
     // A single patch's normal is noisy: first fit the plane to the seed's neighbourhood
     // (looser tolerances, within seed_neighborhood_m), then collect inliers globally.
     if (params_.seed_neighborhood_m > 0.f) {
-      CollectInliers(f, normal, d, 2.f, &f.centroid[seed], params_.seed_neighborhood_m,
-                     &inliers_);
+      CollectInliers(f, normal, d, 2.f, &f.centroid[seed], params_.seed_neighborhood_m, &inliers_);
       if (inliers_.size() >= 3) internal::FitPlane(f, inliers_, &normal, &d, &points);
     }
     CollectInliers(f, normal, d, &inliers_);

@@ -81,7 +81,8 @@ void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& label
     axes[k] = ax;
     centroid[k] = c.cast<float>();
   }
-  std::vector<Eigen::Vector3f> lo(num_objects, Eigen::Vector3f::Constant(std::numeric_limits<float>::max()));
+  std::vector<Eigen::Vector3f> lo(num_objects,
+                                  Eigen::Vector3f::Constant(std::numeric_limits<float>::max()));
   std::vector<Eigen::Vector3f> hi(num_objects,
                                   Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest()));
   // Signed distance to each support plane of each object's lowest point.
@@ -126,7 +127,8 @@ void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& label
       // Minimum signed distance over the AABB corners approximates the lowest point.
       float dmin = std::numeric_limits<float>::max();
       for (int c = 0; c < 8; ++c) {
-        const Eigen::Vector3f corner((c & 1) ? a.max.x() : a.min.x(), (c & 2) ? a.max.y() : a.min.y(),
+        const Eigen::Vector3f corner((c & 1) ? a.max.x() : a.min.x(),
+                                     (c & 2) ? a.max.y() : a.min.y(),
                                      (c & 4) ? a.max.z() : a.min.z());
         dmin = std::min(dmin, n.dot(corner) + pl.d);
       }

@@ -3,28 +3,15 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/text_and_color.h"
+
 namespace clutterseg::pipeline {
 
 core::Rgb8 LabelColor(uint32_t id) {
   if (id == 0) return core::Rgb8{0, 0, 0};
   // Golden-ratio hue steps give well separated colours for consecutive ids.
-  const double h = std::fmod(0.13 + 0.618033988749895 * id, 1.0) * 6.0;
-  const double s = (id % 3 == 0) ? 0.65 : 0.85;
-  const double v = (id % 2 == 0) ? 0.95 : 0.8;
-  const int i = static_cast<int>(h);
-  const double f = h - i;
-  const double p = v * (1 - s), q = v * (1 - s * f), t = v * (1 - s * (1 - f));
-  double r = 0, g = 0, b = 0;
-  switch (i % 6) {
-    case 0: r = v; g = t; b = p; break;
-    case 1: r = q; g = v; b = p; break;
-    case 2: r = p; g = v; b = t; break;
-    case 3: r = p; g = q; b = v; break;
-    case 4: r = t; g = p; b = v; break;
-    default: r = v; g = p; b = q; break;
-  }
-  return core::Rgb8{static_cast<uint8_t>(r * 255), static_cast<uint8_t>(g * 255),
-                    static_cast<uint8_t>(b * 255)};
+  return core::HsvToRgb(0.13 + 0.618033988749895 * id, (id % 3 == 0) ? 0.65 : 0.85,
+                        (id % 2 == 0) ? 0.95 : 0.8);
 }
 
 void CloudToImage(const core::PointCloud& cloud, core::ColorImage* out) {
@@ -69,10 +56,9 @@ void RenderOverlay(const core::LabelImage& labels, const core::ColorImage* base,
         continue;
       }
       const core::Rgb8 c = LabelColor(l);
-      const bool border = (u > 0 && labels.data[i - 1] != l) ||
-                          (u + 1 < w && labels.data[i + 1] != l) ||
-                          (v > 0 && labels.data[i - w] != l) ||
-                          (v + 1 < h && labels.data[i + w] != l);
+      const bool border =
+          (u > 0 && labels.data[i - 1] != l) || (u + 1 < w && labels.data[i + 1] != l) ||
+          (v > 0 && labels.data[i - w] != l) || (v + 1 < h && labels.data[i + w] != l);
       if (border) {
         out->data[i] = c;
       } else {

@@ -41,9 +41,10 @@ bool Refiner::KeepGroup(const ObjectParams& params, const optimize::PlaneLabelin
 }
 
 uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
-                      const core::PointCloud& cloud, const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
-                      const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
-                      core::LabelImage* labels, std::vector<Plane>* out_planes) {
+                      const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
+                      const graph::PatchFeatures& features, const graph::LinkageResult& link,
+                      const optimize::PlaneLabeling& planes, core::LabelImage* labels,
+                      std::vector<Plane>* out_planes) {
   const size_t n = sv.size();
   const size_t num_planes = planes.planes.size();
 
@@ -59,8 +60,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
     const core::Vec3f& nrm = planes.planes[p].normal;
     const double r = std::sqrt(double(c.x) * c.x + double(c.y) * c.y + double(c.z) * c.z);
     if (!(r > 0.0)) continue;
-    const double cos_t =
-        std::max(0.2, std::abs((c.x * nrm.x + c.y * nrm.y + c.z * nrm.z) / r));
+    const double cos_t = std::max(0.2, std::abs((c.x * nrm.x + c.y * nrm.y + c.z * nrm.z) / r));
     plane_area_[p] += sv.num_points[i] * double(c.z) * c.z * pixel_area / cos_t;
   }
   support_.assign(num_planes, 0);

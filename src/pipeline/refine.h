@@ -26,9 +26,10 @@ class Refiner {
   /// Writes the label image (`labels` must already be sized to the frame) and the plane
   /// list; returns the number of objects (labels 1..n).
   uint32_t Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
-               const core::PointCloud& cloud, const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
-               const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
-               core::LabelImage* labels, std::vector<Plane>* out_planes);
+               const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
+               const graph::PatchFeatures& features, const graph::LinkageResult& link,
+               const optimize::PlaneLabeling& planes, core::LabelImage* labels,
+               std::vector<Plane>* out_planes);
 
  private:
   int32_t Find(int32_t x);

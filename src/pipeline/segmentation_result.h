@@ -20,17 +20,17 @@ struct Plane {
 
 /// One segmented object. All geometry in metres, camera frame.
 struct Object {
-  uint32_t id{0};            ///< the object's value in the label image (>= 1)
+  uint32_t id{0};  ///< the object's value in the label image (>= 1)
   uint32_t num_points{0};
   core::Vec3f centroid;
   core::Vec3f aabb_min;
   core::Vec3f aabb_max;
   core::Vec3f obb_center;
-  core::Vec3f obb_axes[3];   ///< unit principal axes, largest variance first, right-handed
-  core::Vec3f obb_extents;   ///< full side lengths along obb_axes
+  core::Vec3f obb_axes[3];       ///< unit principal axes, largest variance first, right-handed
+  core::Vec3f obb_extents;       ///< full side lengths along obb_axes
   int32_t support_plane_id{-1};  ///< id of the plane it stands on, -1 when none
   core::Rgb8 mean_color;
-  float confidence{1.f};     ///< 0..1
+  float confidence{1.f};                                                   ///< 0..1
   int32_t pixel_min_u{0}, pixel_min_v{0}, pixel_max_u{0}, pixel_max_v{0};  ///< image bbox
 };
 
@@ -44,8 +44,8 @@ struct StageTimes {
 struct SegmentationResult {
   int width{0};
   int height{0};
-  core::LabelImage labels;       ///< 0 = background / invalid, k >= 1 = objects[k-1].id == k
-  std::vector<Object> objects;   ///< ordered by id
+  core::LabelImage labels;      ///< 0 = background / invalid, k >= 1 = objects[k-1].id == k
+  std::vector<Object> objects;  ///< ordered by id
   std::vector<Plane> planes;
   uint32_t num_supervoxels{0};
   uint32_t num_valid_points{0};

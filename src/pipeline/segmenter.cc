@@ -119,9 +119,8 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   times.planes_ms = MsSince(t0);
 
   t0 = Clock::now();
-  const uint32_t num_objects =
-      m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch, m.link, m.planes,
-                    &result->labels, &result->planes);
+  const uint32_t num_objects = m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch,
+                                             m.link, m.planes, &result->labels, &result->planes);
   times.expansion_ms = 0.0;  // included in planes_ms (PlaneLabeler runs the expansion)
   ComputeObjects(cloud, result->labels, num_objects, result->planes, &result->objects);
   times.objects_ms = MsSince(t0);

@@ -8,7 +8,7 @@ namespace clutterseg::pipeline {
 
 /// Refinement and object extraction (docs/method.md section 6).
 struct ObjectParams {
-  int min_object_points{150};          ///< smaller segments are dropped (label 0)
+  int min_object_points{150};  ///< smaller segments are dropped (label 0)
   /// A plane whose assigned surface covers at least this area is a support (table, floor,
   /// wall) and becomes background, m^2. Object faces are smaller.
   float support_min_area_m2{0.15f};
@@ -17,8 +17,8 @@ struct ObjectParams {
   /// Segments whose centroid lies this far below a support plane (table edges and legs,
   /// things under the table) are background, metres (0 = keep them).
   float below_support_margin_m{0.005f};
-  float min_depth_m{0.3f};             ///< points nearer than this are ignored, metres
-  float max_depth_m{3.0f};             ///< points farther than this are ignored, metres
+  float min_depth_m{0.3f};  ///< points nearer than this are ignored, metres
+  float max_depth_m{3.0f};  ///< points farther than this are ignored, metres
 
   /// @throws std::invalid_argument naming the key and value.
   void ValidateOrThrow() const;

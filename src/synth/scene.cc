@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/assert.h"
+#include "core/text_and_color.h"
 #include "synth/internal/random.h"
 
 namespace clutterseg::synth {
@@ -170,52 +171,6 @@ Placed Instantiate(const Shape& s, double cx, double cy, double yaw, double base
   return out;
 }
 
-core::Rgb8 HsvToRgb(double h, double s, double v) {
-  const double hh = 6.0 * (h - std::floor(h));
-  const int sector = static_cast<int>(hh) % 6;
-  const double f = hh - std::floor(hh);
-  const double p = v * (1.0 - s);
-  const double q = v * (1.0 - s * f);
-  const double t = v * (1.0 - s * (1.0 - f));
-  double r = v, g = t, b = p;
-  switch (sector) {
-    case 0:
-      r = v;
-      g = t;
-      b = p;
-      break;
-    case 1:
-      r = q;
-      g = v;
-      b = p;
-      break;
-    case 2:
-      r = p;
-      g = v;
-      b = t;
-      break;
-    case 3:
-      r = p;
-      g = q;
-      b = v;
-      break;
-    case 4:
-      r = t;
-      g = p;
-      b = v;
-      break;
-    default:
-      r = v;
-      g = p;
-      b = q;
-      break;
-  }
-  auto to8 = [](double x) {
-    return static_cast<uint8_t>(std::lround(std::clamp(x, 0.0, 1.0) * 255.0));
-  };
-  return {to8(r), to8(g), to8(b)};
-}
-
 // Corners (x, y) of a footprint's bounding rectangle (a circle's circumscribed square).
 void FootprintCorners(const Footprint& f, double xs[4], double ys[4]) {
   const double c = std::cos(f.yaw_rad);
@@ -336,8 +291,8 @@ class Generator {
       const uint32_t label = static_cast<uint32_t>(placed_.size()) + 1;
       const ObjectKind kind = p_.object_kinds[static_cast<size_t>(
           rng_.UniformInt(0, static_cast<int>(p_.object_kinds.size()) - 1))];
-      const core::Rgb8 color = HsvToRgb(hue0_ + 0.618033988749895 * label, rng_.Uniform(0.45, 0.9),
-                                        rng_.Uniform(0.45, 0.95));
+      const core::Rgb8 color = core::HsvToRgb(hue0_ + 0.618033988749895 * label,
+                                              rng_.Uniform(0.45, 0.9), rng_.Uniform(0.45, 0.95));
       const double mode = rng_.Uniform(0.0, 1.0);
       Placement wanted = Placement::kFree;
       if (mode < p_.stack_probability) {

@@ -63,9 +63,8 @@ TEST(ThreadPool, RethrowsTheFirstChunkException) {
 TEST(ThreadPool, NestedParallelForRunsInlineWithoutDeadlock) {
   ThreadPool dut(2);
   std::atomic<int> inner{0};
-  dut.ParallelFor(8, 1, [&](size_t, size_t) {
-    dut.ParallelFor(4, 1, [&](size_t, size_t) { inner++; });
-  });
+  dut.ParallelFor(8, 1,
+                  [&](size_t, size_t) { dut.ParallelFor(4, 1, [&](size_t, size_t) { inner++; }); });
   EXPECT_EQ(inner.load(), 32);
 }
 

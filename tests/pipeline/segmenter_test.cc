@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <string>
 #include <limits>
 #include <random>
 #include <stdexcept>
+#include <string>
 
 #include <gtest/gtest.h>
 
@@ -30,8 +30,7 @@ Rendered Render(const synth::SceneParams& params, uint64_t seed, bool noise = tr
   Rendered r;
   r.scene = synth::GenerateScene(params, seed);
   synth::RenderedFrame frame;
-  const synth::SensorParams sensor =
-      noise ? synth::SensorParams{} : synth::NoiselessSensorParams();
+  const synth::SensorParams sensor = noise ? synth::SensorParams{} : synth::NoiselessSensorParams();
   synth::RenderScene(r.scene, params.intrinsics, sensor, seed, &frame);
   synth::ToPointCloud(frame, &r.cloud);
   r.intrinsics = params.intrinsics;
@@ -56,8 +55,7 @@ synth::SceneParams SimpleParams() {
   p.wall_probability = 0.0;
   p.camera_distance_min_m = 0.8;
   p.camera_distance_max_m = 1.0;
-  p.object_kinds = {synth::ObjectKind::kBox, synth::ObjectKind::kCan,
-                    synth::ObjectKind::kSphere};
+  p.object_kinds = {synth::ObjectKind::kBox, synth::ObjectKind::kCan, synth::ObjectKind::kSphere};
   return p;
 }
 
@@ -155,25 +153,22 @@ TEST_F(SegmenterTest, TouchingObjectsComeOutSeparate) {
   // (1 mm gap). Boxes touching with flush, coplanar faces are not separable by geometry
   // alone (docs/method.md, limitations).
   const double half_x = 0.05 * (std::cos(0.5236) + std::sin(0.5236));
-  const Rendered r = RenderBoxes({{-0.051, 0.0, 0.10, 0.10, 0.16, 0.0},
-                                  {half_x, 0.0, 0.10, 0.10, 0.08, 0.0, 0.5236}},
-                                 41);
+  const Rendered r = RenderBoxes(
+      {{-0.051, 0.0, 0.10, 0.10, 0.16, 0.0}, {half_x, 0.0, 0.10, 0.10, 0.08, 0.0, 0.5236}}, 41);
   ExpectSeparate(r, params_, 0.8, "touching boxes");
 }
 
 TEST_F(SegmenterTest, StackedObjectsComeOutSeparate) {
   // A small box standing on the middle of a wide, low one.
-  const Rendered r = RenderBoxes({{0.0, 0.0, 0.24, 0.18, 0.07, 0.0},
-                                  {0.0, 0.0, 0.08, 0.08, 0.12, 0.07}},
-                                 42);
+  const Rendered r =
+      RenderBoxes({{0.0, 0.0, 0.24, 0.18, 0.07, 0.0}, {0.0, 0.0, 0.08, 0.08, 0.12, 0.07}}, 42);
   ExpectSeparate(r, params_, 0.8, "stacked boxes");
 }
 
 TEST_F(SegmenterTest, OccludingObjectsComeOutSeparate) {
   // A box partly hiding a taller one 8 cm behind it (the camera looks along +y).
-  const Rendered r = RenderBoxes({{0.0, 0.10, 0.12, 0.08, 0.20, 0.0},
-                                  {0.04, -0.02, 0.10, 0.06, 0.10, 0.0}},
-                                 43);
+  const Rendered r =
+      RenderBoxes({{0.0, 0.10, 0.12, 0.08, 0.20, 0.0}, {0.04, -0.02, 0.10, 0.06, 0.10, 0.0}}, 43);
   ExpectSeparate(r, params_, 0.75, "occluding boxes");
 }
 

@@ -18,10 +18,10 @@ std::filesystem::path ScratchDir(const std::string& name);
 }  // namespace clutterseg::testing
 
 /// Skips the current test with a clear message when shared data is missing.
-#define CLUTTERSEG_REQUIRE_DATA(rel)                                                  \
-  do {                                                                                \
-    if (!::clutterseg::testing::HaveData(rel)) {                                      \
-      GTEST_SKIP() << "shared data '" << (rel) << "' not found under "                \
-                   << ::clutterseg::testing::DataDir() << " (set CLUTTERSEG_DATA)";   \
-    }                                                                                 \
+#define CLUTTERSEG_REQUIRE_DATA(rel)                                                \
+  do {                                                                              \
+    if (!::clutterseg::testing::HaveData(rel)) {                                    \
+      GTEST_SKIP() << "shared data '" << (rel) << "' not found under "              \
+                   << ::clutterseg::testing::DataDir() << " (set CLUTTERSEG_DATA)"; \
+    }                                                                               \
   } while (0)

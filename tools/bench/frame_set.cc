@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "core/text_and_color.h"
 #include "core/thread_pool.h"
 #include "io/pcd.h"
 #include "synth/internal/random.h"
@@ -25,35 +26,6 @@ size_t FrameSet::HeapBytes() const {
   return bytes;
 }
 
-bool NaturalLess(const std::string& a, const std::string& b) {
-  size_t i = 0;
-  size_t j = 0;
-  while (i < a.size() && j < b.size()) {
-    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0;
-    const bool db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
-    if (da && db) {
-      size_t ie = i;
-      size_t je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      size_t zi = i;
-      size_t zj = j;
-      while (zi + 1 < ie && a[zi] == '0') ++zi;
-      while (zj + 1 < je && b[zj] == '0') ++zj;
-      if (ie - zi != je - zj) return ie - zi < je - zj;
-      const int c = a.compare(zi, ie - zi, b, zj, je - zj);
-      if (c != 0) return c < 0;
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  return a.size() - i < b.size() - j;
-}
-
 FrameSet LoadPcdDirectory(const std::string& dir, size_t max_frames) {
   if (!fs::is_directory(dir)) throw std::runtime_error("'" + dir + "' is not a directory");
   std::vector<std::string> names;
@@ -62,7 +34,8 @@ FrameSet LoadPcdDirectory(const std::string& dir, size_t max_frames) {
       names.push_back(e.path().filename().string());
     }
   }
-  std::sort(names.begin(), names.end(), NaturalLess);
+  std::sort(names.begin(), names.end(),
+            [](const std::string& a, const std::string& b) { return core::NaturalLess(a, b); });
   if (names.empty()) throw std::runtime_error("no *.pcd files in directory '" + dir + "'");
   if (max_frames > 0 && names.size() > max_frames) names.resize(max_frames);
   FrameSet set;

@@ -33,7 +33,4 @@ FrameSet LoadPcdDirectory(const std::string& dir, size_t max_frames);
 /// equal that tool's output. `threads` render threads (0 = all cores).
 FrameSet RenderSyntheticFrames(int count, uint64_t seed, int threads);
 
-/// Natural order of names: digit runs compare as numbers.
-bool NaturalLess(const std::string& a, const std::string& b);
-
 }  // namespace clutterseg::bench

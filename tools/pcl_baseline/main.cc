@@ -15,6 +15,7 @@
 #include <CLI/CLI.hpp>
 #include <pcl/console/print.h>
 
+#include "core/text_and_color.h"
 #include "tools/pcl_baseline/pcl_baseline.h"
 
 namespace clutterseg::pcl_baseline {
@@ -52,36 +53,6 @@ std::string TimesJson(const std::string& file, Method method, const FrameReport&
                 r.total_cpu_ms, lccp ? "supervoxels" : "planes", r.intermediate_count,
                 r.segment_count, r.valid_points, r.labelled_points);
   return buf.data();
-}
-
-// Natural order (learn2 before learn10) so outputs and times follow frame numbers.
-bool NaturalLess(const std::string& a, const std::string& b) {
-  std::size_t i = 0;
-  std::size_t j = 0;
-  while (i < a.size() && j < b.size()) {
-    if (std::isdigit(static_cast<unsigned char>(a[i])) &&
-        std::isdigit(static_cast<unsigned char>(b[j]))) {
-      std::size_t ie = i;
-      std::size_t je = j;
-      while (ie < a.size() && std::isdigit(static_cast<unsigned char>(a[ie]))) ++ie;
-      while (je < b.size() && std::isdigit(static_cast<unsigned char>(b[je]))) ++je;
-      const std::string na = a.substr(i, ie - i);
-      const std::string nb = b.substr(j, je - j);
-      const std::size_t za = na.find_first_not_of('0');
-      const std::size_t zb = nb.find_first_not_of('0');
-      const std::string ta = za == std::string::npos ? "" : na.substr(za);
-      const std::string tb = zb == std::string::npos ? "" : nb.substr(zb);
-      if (ta.size() != tb.size()) return ta.size() < tb.size();
-      if (ta != tb) return ta < tb;
-      i = ie;
-      j = je;
-    } else {
-      if (a[i] != b[j]) return a[i] < b[j];
-      ++i;
-      ++j;
-    }
-  }
-  return a.size() - i < b.size() - j;
 }
 
 int Run(int argc, char** argv) {
@@ -157,7 +128,9 @@ int Run(int argc, char** argv) {
         names.push_back(e.path().filename().string());
       }
     }
-    std::sort(names.begin(), names.end(), NaturalLess);
+    // Natural order (learn2 before learn10) so outputs and times follow frame numbers.
+    std::sort(names.begin(), names.end(),
+              [](const std::string& a, const std::string& b) { return core::NaturalLess(a, b); });
     if (names.empty()) throw std::runtime_error("no *.pcd files in directory '" + in + "'");
     fs::create_directories(out);
     for (const std::string& n : names) jobs.emplace_back(fs::path(in) / n, fs::path(out) / n);
