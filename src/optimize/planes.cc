@@ -100,8 +100,10 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
       seeds_.push_back(static_cast<uint32_t>(i));
     }
   }
-  std::stable_sort(seeds_.begin(), seeds_.end(),
-                   [&](uint32_t a, uint32_t b) { return f.curvature[a] < f.curvature[b]; });
+  // Flattest first; ties by index (std::sort with a total order: no temporary buffer).
+  std::sort(seeds_.begin(), seeds_.end(), [&](uint32_t a, uint32_t b) {
+    return f.curvature[a] < f.curvature[b] || (f.curvature[a] == f.curvature[b] && a < b);
+  });
   covered_.assign(n, 0);
   const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
   const auto min_inliers = static_cast<size_t>(params_.min_inlier_patches);
@@ -140,6 +142,7 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
       sn += f.num_points[i];
     }
     Candidate c;
+    c.order = static_cast<uint32_t>(candidates_.size());
     c.model = PlaneModel{normal, d, points, static_cast<uint32_t>(inliers_.size())};
     c.inlier_centroid = core::Vec3f{static_cast<float>(sx / sn), static_cast<float>(sy / sn),
                                     static_cast<float>(sz / sn)};
@@ -152,10 +155,10 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
   // surfaces (e.g. the depth-quantisation terraces of far background) use up max_planes
   // before the table is reached.
   if (params_.accept_largest_first) {
-    std::stable_sort(candidates_.begin(), candidates_.end(),
-                     [](const Candidate& a, const Candidate& b) {
-                       return a.model.num_points > b.model.num_points;
-                     });
+    std::sort(candidates_.begin(), candidates_.end(), [](const Candidate& a, const Candidate& b) {
+      return a.model.num_points > b.model.num_points ||
+             (a.model.num_points == b.model.num_points && a.order < b.order);
+    });
   }
   for (const Candidate& c : candidates_) {
     if (static_cast<int>(planes->size()) >= params_.max_planes) break;

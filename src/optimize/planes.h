@@ -71,6 +71,7 @@ class PlaneLabeler {
   struct Candidate {
     PlaneModel model;
     core::Vec3f inlier_centroid;  // point-weighted mean of the inlier patch centroids
+    uint32_t order{0};            // position in seed order (tie-break)
   };
   std::vector<Candidate> candidates_;
   std::vector<PlaneModel> hypotheses_;
