@@ -1,4 +1,4 @@
-// Supervoxels of real Kinect frames (mOSD learn split, /work/shared/data/mosd-learn).
+// Supervoxels of real Kinect frames (mOSD learn split, ../shared/data/mosd-learn).
 #include <algorithm>
 #include <cstdio>
 #include <string>
