@@ -1,6 +1,9 @@
 #include "tests/testing/test_data.h"
 
+#include <unistd.h>
+
 #include <cstdlib>
+#include <string>
 
 namespace clutterseg::testing {
 
@@ -17,7 +20,10 @@ bool HaveData(const std::string& relative) {
 }
 
 std::filesystem::path ScratchDir(const std::string& name) {
-  std::filesystem::path dir = std::filesystem::path(CLUTTERSEG_BINARY_DIR) / "test_scratch" / name;
+  // ctest runs the tests of one binary in parallel processes: the process id keeps two tests
+  // that use the same name from deleting each other's files.
+  std::filesystem::path dir = std::filesystem::path(CLUTTERSEG_BINARY_DIR) / "test_scratch" /
+                              (name + "_" + std::to_string(getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -12,7 +12,8 @@ std::filesystem::path DataDir();
 /// True when `DataDir()/relative` exists; tests call GTEST_SKIP() with a message otherwise.
 bool HaveData(const std::string& relative);
 
-/// A fresh empty directory under the build tree for one test's outputs.
+/// A fresh empty directory under the build tree for one test's outputs, private to this
+/// process (the name gets the process id appended).
 std::filesystem::path ScratchDir(const std::string& name);
 
 }  // namespace clutterseg::testing
