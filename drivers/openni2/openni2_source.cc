@@ -85,11 +85,6 @@ int ValidateRecording(const std::string& path, bool* has_color) {
   return static_cast<int>(depth->data_records);
 }
 
-int64_t SteadyMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
-      .count();
-}
-
 }  // namespace
 
 void OpenNI2SourceOptions::ValidateOrThrow() const {
@@ -487,7 +482,7 @@ struct OpenNI2Source::Impl {
   }
 
   void Emit(core::RgbdFrame* frame) {
-    frame->receive_utime = SteadyMicros();
+    frame->receive_utime = core::SteadyClockMicros();
     frame->utime = static_cast<int64_t>(depth_frame.getTimestamp());
     frame->sequence = sequence++;
     frame->camera_name = options.camera_name;

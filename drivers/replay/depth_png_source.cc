@@ -157,12 +157,7 @@ core::ReadStatus DepthPngSource::Read(int /*timeout_ms*/, core::RgbdFrame* frame
   if (frame->depth.width != intrinsics_.width || frame->depth.height != intrinsics_.height) {
     frame->intrinsics = intrinsics_.Scaled(frame->depth.width, frame->depth.height);
   }
-  frame->utime = static_cast<int64_t>(sequence_) * options_.frame_period_us;
-  frame->sequence = sequence_++;
-  frame->receive_utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                             std::chrono::steady_clock::now().time_since_epoch())
-                             .count();
-  frame->camera_name = options_.camera_name;
+  core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
   return core::ReadStatus::kOk;
 }
 

@@ -222,7 +222,7 @@ core::ReadStatus PcdDirectorySource::Read(int /*timeout_ms*/, core::RgbdFrame* f
   }
   const std::string& file = files_[next_++];
   try {
-    cloud_ = io::ReadPcd(file);
+    io::ReadPcd(file, {}, &cloud_);  // reuses the cloud's buffers
   } catch (const std::exception& e) {
     error_ = e.what();
     return core::ReadStatus::kError;
@@ -234,12 +234,7 @@ core::ReadStatus PcdDirectorySource::Read(int /*timeout_ms*/, core::RgbdFrame* f
     frame->intrinsics = intrinsics_;
   }
   CloudToDepth(cloud_, frame->intrinsics, &frame->depth, &frame->color);
-  frame->utime = static_cast<int64_t>(sequence_) * options_.frame_period_us;
-  frame->sequence = sequence_++;
-  frame->receive_utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                             std::chrono::steady_clock::now().time_since_epoch())
-                             .count();
-  frame->camera_name = options_.camera_name;
+  core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
   return core::ReadStatus::kOk;
 }
 

@@ -114,12 +114,7 @@ core::ReadStatus SyntheticSource::Read(int timeout_ms, core::RgbdFrame* frame) {
   frame->depth = m.rendered.depth;
   frame->color = m.rendered.color;
   frame->intrinsics = m.rendered.intrinsics;
-  frame->utime = static_cast<int64_t>(m.sequence) * options_.frame_period_us;
-  frame->sequence = m.sequence++;
-  frame->receive_utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                             std::chrono::steady_clock::now().time_since_epoch())
-                             .count();
-  frame->camera_name = options_.camera_name;
+  core::StampReplayFrame(m.sequence++, options_.frame_period_us, options_.camera_name, frame);
   return core::ReadStatus::kOk;
 }
 

@@ -21,4 +21,12 @@ struct RgbdFrame {
   std::string camera_name{"camera"};
 };
 
+/// Microseconds on the steady clock (the time base of RgbdFrame::receive_utime).
+int64_t SteadyClockMicros();
+
+/// Stamps a frame of a recording without its own clock (files, synthetic scenes): frame
+/// number `sequence`, capture time sequence * frame_period_us, received now.
+void StampReplayFrame(uint64_t sequence, int64_t frame_period_us, const std::string& camera_name,
+                      RgbdFrame* frame);
+
 }  // namespace clutterseg::core

@@ -15,6 +15,7 @@
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "core/frame.h"
 #include "core/frame_pool.h"
 #include "core/point_cloud.h"
 #include "core/thread_pool.h"
@@ -31,11 +32,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using config::LogLevel;
-
-int64_t SteadyMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch())
-      .count();
-}
 
 int64_t WallMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
@@ -206,7 +202,7 @@ struct Daemon::Impl {
         frame->receive_utime = 0;
         switch (source->Read(100, frame)) {
           case core::ReadStatus::kOk: {
-            if (frame->receive_utime == 0) frame->receive_utime = SteadyMicros();
+            if (frame->receive_utime == 0) frame->receive_utime = core::SteadyClockMicros();
             frame->camera_name = config.camera_name;
             if (pace) {
               // Replay at the recorded rate: frame time relative to the first frame.
@@ -396,7 +392,7 @@ struct Daemon::Impl {
   void ProcessFrame(Lane* lane, const core::RgbdFrame& frame) {
     lane->ok = false;
     try {
-      const int64_t start_us = SteadyMicros();
+      const int64_t start_us = core::SteadyClockMicros();
       lane->receive_utime = frame.receive_utime;
       lane->queue_ms = static_cast<double>(start_us - frame.receive_utime) * 1e-3;
       const uint64_t generation = params_generation.load();
@@ -416,7 +412,7 @@ struct Daemon::Impl {
               : nullptr;
       core::DepthToPointCloud(frame.depth, frame.intrinsics, color, &lane->cloud);
       lane->segmenter->Process(lane->cloud, frame.intrinsics, &lane->result);
-      lane->segment_ms = static_cast<double>(SteadyMicros() - start_us) * 1e-3;
+      lane->segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
       lane->stages = StageValues(lane->result.times);
 
       FrameInfo info;
@@ -462,7 +458,7 @@ struct Daemon::Impl {
     if (config.max_frames > 0 && published.load() >= static_cast<uint64_t>(config.max_frames)) {
       return;
     }
-    const int64_t now_us = SteadyMicros();
+    const int64_t now_us = core::SteadyClockMicros();
     const double c2p_ms = static_cast<double>(now_us - lane->receive_utime) * 1e-3;
     lane->objects.queue_ms = static_cast<float>(lane->queue_ms);
     lane->objects.capture_to_publish_ms = static_cast<float>(c2p_ms);

@@ -8,9 +8,7 @@
 #include <Eigen/Eigenvalues>
 
 namespace clutterseg::pipeline {
-namespace {
-
-struct Accumulator {
+struct ObjectExtractor::Accumulator {
   uint64_t n{0};
   Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
   Eigen::Matrix3d sum_sq{Eigen::Matrix3d::Zero()};
@@ -21,16 +19,30 @@ struct Accumulator {
   int umax{-1}, vmax{-1};
 };
 
+// Principal axes (columns, largest variance first), centroid and the extents along the axes.
+struct ObjectExtractor::Frame {
+  Eigen::Matrix3f axes{Eigen::Matrix3f::Identity()};
+  Eigen::Vector3f centroid{Eigen::Vector3f::Zero()};
+  Eigen::Vector3f lo{Eigen::Vector3f::Constant(std::numeric_limits<float>::max())};
+  Eigen::Vector3f hi{Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest())};
+};
+
+namespace {
 core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v.z()}; }
 
 }  // namespace
 
-void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& labels,
-                    uint32_t num_objects, const std::vector<Plane>& planes,
-                    std::vector<Object>* objects) {
+ObjectExtractor::ObjectExtractor() = default;
+ObjectExtractor::~ObjectExtractor() = default;
+
+void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelImage& labels,
+                              uint32_t num_objects, const std::vector<Plane>& planes,
+                              std::vector<Object>* objects) {
   objects->resize(num_objects);
   if (num_objects == 0) return;
-  std::vector<Accumulator> acc(num_objects);
+  acc_.assign(num_objects, Accumulator{});
+  frames_.assign(num_objects, Frame{});
+  std::vector<Accumulator>& acc = acc_;
   const bool color = cloud.has_color();
   const int w = labels.width;
   for (size_t i = 0; i < labels.data.size(); ++i) {
@@ -61,8 +73,6 @@ void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& label
   }
 
   // Oriented boxes need the extents along the principal axes: a second pass.
-  std::vector<Eigen::Matrix3f> axes(num_objects, Eigen::Matrix3f::Identity());
-  std::vector<Eigen::Vector3f> centroid(num_objects, Eigen::Vector3f::Zero());
   for (uint32_t k = 0; k < num_objects; ++k) {
     const Accumulator& a = acc[k];
     if (a.n == 0) continue;
@@ -78,39 +88,35 @@ void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& label
     if (ax(0, 0) < 0.f || (ax(0, 0) == 0.f && ax(1, 0) < 0.f)) ax.col(0) = -ax.col(0);
     if (ax(1, 1) < 0.f || (ax(1, 1) == 0.f && ax(2, 1) < 0.f)) ax.col(1) = -ax.col(1);
     ax.col(2) = ax.col(0).cross(ax.col(1)).normalized();
-    axes[k] = ax;
-    centroid[k] = c.cast<float>();
+    frames_[k].axes = ax;
+    frames_[k].centroid = c.cast<float>();
   }
-  std::vector<Eigen::Vector3f> lo(num_objects,
-                                  Eigen::Vector3f::Constant(std::numeric_limits<float>::max()));
-  std::vector<Eigen::Vector3f> hi(num_objects,
-                                  Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest()));
-  // Signed distance to each support plane of each object's lowest point.
   for (size_t i = 0; i < labels.data.size(); ++i) {
     const uint32_t l = labels.data[i];
     if (l == 0 || l > num_objects) continue;
     const core::Vec3f& p = cloud.xyz[i];
     if (!core::IsValid(p)) continue;
-    const Eigen::Vector3f d = Eigen::Vector3f(p.x, p.y, p.z) - centroid[l - 1];
-    const Eigen::Vector3f local = axes[l - 1].transpose() * d;
-    lo[l - 1] = lo[l - 1].cwiseMin(local);
-    hi[l - 1] = hi[l - 1].cwiseMax(local);
+    Frame& f = frames_[l - 1];
+    const Eigen::Vector3f local =
+        f.axes.transpose() * (Eigen::Vector3f(p.x, p.y, p.z) - f.centroid);
+    f.lo = f.lo.cwiseMin(local);
+    f.hi = f.hi.cwiseMax(local);
   }
 
   for (uint32_t k = 0; k < num_objects; ++k) {
     const Accumulator& a = acc[k];
+    const Frame& f = frames_[k];
     Object& o = (*objects)[k];
     o = Object{};
     o.id = k + 1;
     o.num_points = static_cast<uint32_t>(a.n);
     if (a.n == 0) continue;
-    o.centroid = ToVec(centroid[k]);
+    o.centroid = ToVec(f.centroid);
     o.aabb_min = ToVec(a.min);
     o.aabb_max = ToVec(a.max);
-    const Eigen::Vector3f mid_local = 0.5f * (lo[k] + hi[k]);
-    o.obb_center = ToVec(centroid[k] + axes[k] * mid_local);
-    for (int j = 0; j < 3; ++j) o.obb_axes[j] = ToVec(axes[k].col(j));
-    o.obb_extents = ToVec(hi[k] - lo[k]);
+    o.obb_center = ToVec(f.centroid + f.axes * (0.5f * (f.lo + f.hi)));
+    for (int j = 0; j < 3; ++j) o.obb_axes[j] = ToVec(f.axes.col(j));
+    o.obb_extents = ToVec(f.hi - f.lo);
     o.mean_color = core::Rgb8{static_cast<uint8_t>(a.r / a.n), static_cast<uint8_t>(a.g / a.n),
                               static_cast<uint8_t>(a.b / a.n)};
     o.pixel_min_u = a.umin;
@@ -132,7 +138,7 @@ void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& label
                                      (c & 4) ? a.max.z() : a.min.z());
         dmin = std::min(dmin, n.dot(corner) + pl.d);
       }
-      const float dc = n.dot(centroid[k]) + pl.d;
+      const float dc = n.dot(f.centroid) + pl.d;
       if (dc <= 0.f) continue;  // the object is behind the plane
       if (std::abs(dmin) < best && std::abs(dmin) < 0.1f) {
         best = std::abs(dmin);

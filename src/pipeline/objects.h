@@ -11,11 +11,25 @@ namespace clutterseg::pipeline {
 /// Computes the per-object statistics (point count, centroid, axis-aligned and oriented
 /// boxes, principal axes, mean colour, image bounding box, support plane) for the objects
 /// 1..num_objects of `labels` over the organized `cloud`. The support plane of an object is
-/// the support plane nearest below its lowest points (the one whose signed distance to the
-/// object's points is smallest and positive), or -1.
-/// Reuses `objects`' storage. Thread-safety: pure function.
-void ComputeObjects(const core::PointCloud& cloud, const core::LabelImage& labels,
-                    uint32_t num_objects, const std::vector<Plane>& planes,
-                    std::vector<Object>* objects);
+/// the support plane nearest to its lowest axis-aligned-box corner, with the object on the
+/// plane's camera side, or -1.
+///
+/// Thread-safety: Compute is not reentrant (it keeps work buffers, so steady-state frames do
+/// not allocate); distinct instances are independent.
+class ObjectExtractor {
+ public:
+  ObjectExtractor();
+  ~ObjectExtractor();
+
+  /// Fills `objects` (reusing its storage) with objects[k].id == k + 1.
+  void Compute(const core::PointCloud& cloud, const core::LabelImage& labels, uint32_t num_objects,
+               const std::vector<Plane>& planes, std::vector<Object>* objects);
+
+ private:
+  struct Accumulator;
+  struct Frame;
+  std::vector<Accumulator> acc_;
+  std::vector<Frame> frames_;
+};
 
 }  // namespace clutterseg::pipeline

@@ -38,6 +38,7 @@ struct Segmenter::Impl {
   graph::Linkage linkage;
   optimize::PlaneLabeler plane_labeler;
   Refiner refiner;
+  ObjectExtractor objects;
 
   core::PointCloud work;  // the input restricted to the working depth range
   supervoxel::Supervoxels sv;
@@ -122,7 +123,7 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   const uint32_t num_objects = m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch,
                                              m.link, m.planes, &result->labels, &result->planes);
   times.expansion_ms = 0.0;  // included in planes_ms (PlaneLabeler runs the expansion)
-  ComputeObjects(cloud, result->labels, num_objects, result->planes, &result->objects);
+  m.objects.Compute(cloud, result->labels, num_objects, result->planes, &result->objects);
   times.objects_ms = MsSince(t0);
   times.total_ms = MsSince(t_start);
 }

@@ -210,6 +210,7 @@ void BM_RefineObjects(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
   pipeline::Refiner refiner;
+  pipeline::ObjectExtractor extractor;
   core::LabelImage labels;
   std::vector<pipeline::Plane> planes;
   std::vector<pipeline::Object> objects;
@@ -217,7 +218,7 @@ void BM_RefineObjects(benchmark::State& state) {
     labels.Reset(in->work.width, in->work.height, 0u);
     const uint32_t n = refiner.Run(in->params.objects, in->intrinsics, in->work, in->sv,
                                    in->features, in->link, in->planes, &labels, &planes);
-    pipeline::ComputeObjects(in->cloud, labels, n, planes, &objects);
+    extractor.Compute(in->cloud, labels, n, planes, &objects);
     benchmark::DoNotOptimize(objects.data());
   }
   state.counters["objects"] = static_cast<double>(objects.size());
