@@ -2,12 +2,13 @@
 
 #include <condition_variable>
 #include <cstddef>
-#include <deque>
 #include <functional>
 #include <future>
 #include <mutex>
 #include <thread>
 #include <vector>
+
+#include "core/function_ref.h"
 
 namespace clutterseg::core {
 
@@ -37,7 +38,7 @@ class ThreadPool {
   /// Calls `fn(begin, end)` for the chunks [k*grain, min(n, (k+1)*grain)) of [0, n), in
   /// parallel, and returns when all are done. If any chunk throws, the first exception (in
   /// chunk order) is rethrown here after all chunks finished.
-  void ParallelFor(size_t n, size_t grain, const std::function<void(size_t, size_t)>& fn);
+  void ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, size_t)> fn);
 
   /// Number of chunks ParallelFor uses for (n, grain).
   static size_t NumChunks(size_t n, size_t grain) {
@@ -52,12 +53,25 @@ class ThreadPool {
   bool InWorker() const;
 
  private:
+  struct ParallelJob;
+  // A queued unit of work: a ParallelFor helper (job set) or a submitted task (fn set). A
+  // helper whose ParallelFor finished before a worker took it is cancelled (job reset).
+  struct Task {
+    ParallelJob* job{nullptr};
+    std::function<void()> fn;
+  };
+
   void WorkerLoop();
+  void PushLocked(Task task);  // mutex_ held; grows the ring only when it is full
+  static void RunChunks(ParallelJob* job);
 
   std::vector<std::thread> workers_;
   std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<std::function<void()>> queue_;
+  std::condition_variable cv_;       // work queued or stopping
+  std::condition_variable done_cv_;  // a ParallelFor helper finished
+  std::vector<Task> ring_;           // circular queue, capacity ring_.size()
+  size_t head_{0};
+  size_t count_{0};
   bool stopping_{false};
 };
 

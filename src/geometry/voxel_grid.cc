@@ -6,10 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
-#include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-
 #include "core/assert.h"
+#include "geometry/moments.h"
 
 namespace clutterseg::geometry {
 namespace {
@@ -161,6 +159,37 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     int32_t* point_voxel = grid->point_voxel.data();
     VoxelCoord c;
     LogCache log_cache;
+    // Consecutive points of a run in one voxel are summed in registers and flushed when the
+    // voxel changes: adding each point into the voxel's memory made every point wait for the
+    // previous store (a load-add-store chain per point).
+    int32_t run_vox = -1;
+    uint32_t run_count = 0;
+    double r0 = 0, r1 = 0, r2 = 0, r3 = 0, r4 = 0, r5 = 0, r6 = 0, r7 = 0, r8 = 0;
+    float cr = 0.f, cg = 0.f, cb = 0.f;
+    auto flush = [&] {
+      if (run_vox < 0) return;
+      const size_t v = static_cast<size_t>(run_vox);
+      double* sv = &band.sums[9 * v];
+      sv[0] += r0;
+      sv[1] += r1;
+      sv[2] += r2;
+      sv[3] += r3;
+      sv[4] += r4;
+      sv[5] += r5;
+      sv[6] += r6;
+      sv[7] += r7;
+      sv[8] += r8;
+      band.count[v] += run_count;
+      if (with_color) {
+        core::Vec3f& m = band.color[v];
+        m.x += cr;
+        m.y += cg;
+        m.z += cb;
+      }
+      r0 = r1 = r2 = r3 = r4 = r5 = r6 = r7 = r8 = 0.0;
+      cr = cg = cb = 0.f;
+      run_count = 0;
+    };
     for (size_t i = begin; i < end; ++i) {
       const core::Vec3f& p = xyz[i];
       if (!QuantizePoint(p, camera, inv_res, max_depth, &log_cache, &c)) {
@@ -195,27 +224,29 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
         }
       }
       point_voxel[i] = vox;
-      const size_t v = static_cast<size_t>(vox);
+      if (vox != run_vox) {
+        flush();
+        run_vox = vox;
+      }
       const double x = p.x, y = p.y, z = p.z;
-      double* s = &band.sums[9 * v];
-      s[0] += x;
-      s[1] += y;
-      s[2] += z;
-      s[3] += x * x;
-      s[4] += x * y;
-      s[5] += x * z;
-      s[6] += y * y;
-      s[7] += y * z;
-      s[8] += z * z;
-      ++band.count[v];
+      r0 += x;
+      r1 += y;
+      r2 += z;
+      r3 += x * x;
+      r4 += x * y;
+      r5 += x * z;
+      r6 += y * y;
+      r7 += y * z;
+      r8 += z * z;
+      ++run_count;
       if (with_color) {
         const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
-        core::Vec3f& m = band.color[v];
-        m.x += rgb.r;
-        m.y += rgb.g;
-        m.z += rgb.b;
+        cr += rgb.r;
+        cg += rgb.g;
+        cb += rgb.b;
       }
     }
+    flush();
     band.size = count;
   });
 
@@ -484,27 +515,19 @@ void Voxelizer::ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const {
       }
       const float inv = 1.0f / w_sum;
       const float mx = m[0] * inv, my = m[1] * inv, mz = m[2] * inv;
-      Eigen::Matrix3f cov;
-      cov(0, 0) = s[0] * inv - mx * mx;
-      cov(0, 1) = cov(1, 0) = s[1] * inv - mx * my;
-      cov(0, 2) = cov(2, 0) = s[2] * inv - mx * mz;
-      cov(1, 1) = s[3] * inv - my * my;
-      cov(1, 2) = cov(2, 1) = s[4] * inv - my * mz;
-      cov(2, 2) = s[5] * inv - mz * mz;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3f> solver;
-      solver.computeDirect(cov);
-      const Eigen::Vector3f l = solver.eigenvalues().cwiseMax(0.0f);
-      Eigen::Vector3f nrm = solver.eigenvectors().col(0);
-      const float len = nrm.norm();
-      if (!(len > 0.0f) || !std::isfinite(len)) {
-        nrm = Eigen::Vector3f(0.f, 0.f, -1.f);
-      } else {
-        nrm /= len;
+      const double cov[6] = {s[0] * inv - mx * mx, s[1] * inv - mx * my, s[2] * inv - mx * mz,
+                             s[3] * inv - my * my, s[4] * inv - my * mz, s[5] * inv - mz * mz};
+      double nrm[3], l[3];
+      SmallestEigenvector(cov, nrm, l);
+      if (nrm[0] * c0.x + nrm[1] * c0.y + nrm[2] * c0.z > 0.0) {
+        nrm[0] = -nrm[0];
+        nrm[1] = -nrm[1];
+        nrm[2] = -nrm[2];
       }
-      if (nrm.x() * c0.x + nrm.y() * c0.y + nrm.z() * c0.z > 0.0f) nrm = -nrm;
-      grid->normal[v] = core::Vec3f{nrm.x(), nrm.y(), nrm.z()};
-      const float total = l.sum();
-      grid->curvature[v] = total > 0.0f ? l(0) / total : 0.0f;
+      grid->normal[v] = core::Vec3f{static_cast<float>(nrm[0]), static_cast<float>(nrm[1]),
+                                    static_cast<float>(nrm[2])};
+      const double total = l[0] + l[1] + l[2];
+      grid->curvature[v] = total > 0.0 ? static_cast<float>(l[2] / total) : 0.0f;
     }
   });
 }

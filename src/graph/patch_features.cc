@@ -5,13 +5,13 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/Dense>
+#include "geometry/moments.h"
 
 namespace clutterseg::graph {
 namespace {
 
 // Per supervoxel: count, x, y, z, xx, xy, xz, yy, yz, zz.
-constexpr size_t kMoments = 10;
+constexpr size_t kMoments = geometry::kNumMoments;
 // The image is split into this many row blocks (fewer for short images). The split depends
 // only on the image height, so sums combined in block order do not depend on the pool.
 constexpr int kMaxRowBlocks = 8;
@@ -47,41 +47,16 @@ void FinishPatch(double n, const double sum[3], const double sum_sq[6], size_t i
     f->type[i] = PatchType::kNonPlanar;
     return;
   }
-  const Eigen::Vector3d mean(sum[0] / n, sum[1] / n, sum[2] / n);
-  Eigen::Matrix3d cov;
-  cov(0, 0) = sum_sq[0] / n - mean.x() * mean.x();
-  cov(0, 1) = sum_sq[1] / n - mean.x() * mean.y();
-  cov(0, 2) = sum_sq[2] / n - mean.x() * mean.z();
-  cov(1, 1) = sum_sq[3] / n - mean.y() * mean.y();
-  cov(1, 2) = sum_sq[4] / n - mean.y() * mean.z();
-  cov(2, 2) = sum_sq[5] / n - mean.z() * mean.z();
-  cov(1, 0) = cov(0, 1);
-  cov(2, 0) = cov(0, 2);
-  cov(2, 1) = cov(1, 2);
-
-  f->centroid[i] = core::Vec3f{static_cast<float>(mean.x()), static_cast<float>(mean.y()),
-                               static_cast<float>(mean.z())};
-  f->covariance[i] = {static_cast<float>(cov(0, 0)), static_cast<float>(cov(0, 1)),
-                      static_cast<float>(cov(0, 2)), static_cast<float>(cov(1, 1)),
-                      static_cast<float>(cov(1, 2)), static_cast<float>(cov(2, 2))};
-
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
-  solver.computeDirect(cov);
-  const Eigen::Vector3d ev = solver.eigenvalues();  // ascending
-  const double l1 = std::max(ev(2), 0.0);
-  const double l2 = std::max(ev(1), 0.0);
-  const double l3 = std::max(ev(0), 0.0);
-  Eigen::Vector3d nrm = solver.eigenvectors().col(0);
-  if (!(nrm.squaredNorm() > 0.0) || !nrm.allFinite()) nrm = Eigen::Vector3d(0, 0, -1);
-  nrm.normalize();
-  if (nrm.dot(mean) > 0.0) nrm = -nrm;  // towards the camera at the origin
-
-  f->eigenvalues[i] =
-      core::Vec3f{static_cast<float>(l1), static_cast<float>(l2), static_cast<float>(l3)};
-  f->normal[i] = core::Vec3f{static_cast<float>(nrm.x()), static_cast<float>(nrm.y()),
-                             static_cast<float>(nrm.z())};
-  const double total = l1 + l2 + l3;
-  f->curvature[i] = total > 0.0 ? static_cast<float>(l3 / total) : 0.f;
+  const double m[geometry::kNumMoments] = {n,         sum[0],    sum[1],    sum[2],    sum_sq[0],
+                                           sum_sq[1], sum_sq[2], sum_sq[3], sum_sq[4], sum_sq[5]};
+  geometry::ShapeSummary shape;
+  geometry::SummarizeMoments(m, &shape);
+  f->centroid[i] = shape.centroid;
+  f->covariance[i] = shape.covariance;
+  f->eigenvalues[i] = shape.eigenvalues;
+  f->normal[i] = shape.normal;
+  f->curvature[i] = shape.curvature;
+  const double l1 = shape.eigenvalues.x, l2 = shape.eigenvalues.y, l3 = shape.eigenvalues.z;
   const double s1 = std::sqrt(l1), s2 = std::sqrt(l2), s3 = std::sqrt(l3);
   if (s1 > 0.0 && n >= 3.0) {
     const float a1 = static_cast<float>((s1 - s2) / s1);
@@ -113,6 +88,21 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
   }
   f->Resize(num_sv);
   if (num_sv == 0) return;
+  if (sv.moments.size() == num_sv * kMoments) {
+    // The supervoxelizer kept its members' moments: no pass over the pixels.
+    auto finish_from_sv = [&](size_t i0, size_t i1) {
+      for (size_t i = i0; i < i1; ++i) {
+        const double* m = &sv.moments[i * kMoments];
+        internal::FinishPatch(m[0], m + 1, m + 4, i, f);
+      }
+    };
+    if (pool_ != nullptr) {
+      pool_->ParallelFor(num_sv, kPatchGrain, finish_from_sv);
+    } else {
+      finish_from_sv(0, num_sv);
+    }
+    return;
+  }
 
   const int height = sv.height;
   const int width = sv.width;

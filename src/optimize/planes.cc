@@ -61,31 +61,38 @@ PlaneLabeler::PlaneLabeler(const PlaneParams& params) : params_(params) {
   params_.ValidateOrThrow();
 }
 
-void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
-                                  std::vector<uint32_t>* inliers) const {
-  CollectInliers(f, normal, d, 1.f, nullptr, 0.f, inliers);
+void PlaneLabeler::PackPatches(const graph::PatchFeatures& f) {
+  packed_.clear();
+  const auto min_points = static_cast<uint32_t>(params_.min_patch_points);
+  for (size_t i = 0; i < f.size(); ++i) {
+    if (f.num_points[i] < min_points) continue;
+    packed_.push_back(PackedPatch{f.centroid[i], f.normal[i], static_cast<uint32_t>(i)});
+  }
 }
 
-void PlaneLabeler::CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
-                                  float tolerance_scale, const core::Vec3f* center, float radius_m,
+void PlaneLabeler::CollectInliers(const core::Vec3f& normal, float d, float tolerance_scale,
+                                  const core::Vec3f* center, float radius_m,
                                   std::vector<uint32_t>* inliers) const {
   inliers->clear();
   const float rho = params_.inlier_distance_m * tolerance_scale;
   const float min_cos = static_cast<float>(
       std::cos(std::min(89.0, double{params_.inlier_angle_deg} * tolerance_scale) * kDegToRad));
-  const auto min_points = static_cast<uint32_t>(params_.min_patch_points);
-  const float r2 = radius_m * radius_m;
-  const size_t n = f.size();
-  for (size_t i = 0; i < n; ++i) {
-    if (f.num_points[i] < min_points) continue;
-    if (std::fabs(Dot(normal, f.centroid[i]) + d) > rho) continue;
-    if (Dot(normal, f.normal[i]) < min_cos) continue;
-    if (center != nullptr) {
-      const float dx = f.centroid[i].x - center->x, dy = f.centroid[i].y - center->y,
-                  dz = f.centroid[i].z - center->z;
+  if (center != nullptr) {
+    const float r2 = radius_m * radius_m;
+    for (const PackedPatch& p : packed_) {
+      const float dx = p.centroid.x - center->x, dy = p.centroid.y - center->y,
+                  dz = p.centroid.z - center->z;
       if (dx * dx + dy * dy + dz * dz > r2) continue;
+      if (std::fabs(Dot(normal, p.centroid) + d) > rho) continue;
+      if (Dot(normal, p.normal) < min_cos) continue;
+      inliers->push_back(p.index);
     }
-    inliers->push_back(static_cast<uint32_t>(i));
+    return;
+  }
+  for (const PackedPatch& p : packed_) {
+    if (std::fabs(Dot(normal, p.centroid) + d) > rho) continue;
+    if (Dot(normal, p.normal) < min_cos) continue;
+    inliers->push_back(p.index);
   }
 }
 
@@ -105,6 +112,7 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
     return f.curvature[a] < f.curvature[b] || (f.curvature[a] == f.curvature[b] && a < b);
   });
   covered_.assign(n, 0);
+  PackPatches(f);
   const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
   const auto min_inliers = static_cast<size_t>(params_.min_inlier_patches);
 
@@ -122,15 +130,16 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
     // A single patch's normal is noisy: first fit the plane to the seed's neighbourhood
     // (looser tolerances, within seed_neighborhood_m), then collect inliers globally.
     if (params_.seed_neighborhood_m > 0.f) {
-      CollectInliers(f, normal, d, 2.f, &f.centroid[seed], params_.seed_neighborhood_m, &inliers_);
+      CollectInliers(normal, d, 2.f, &f.centroid[seed], params_.seed_neighborhood_m, &inliers_);
       if (inliers_.size() >= 3) internal::FitPlane(f, inliers_, &normal, &d, &points);
     }
-    CollectInliers(f, normal, d, &inliers_);
+    CollectInliers(normal, d, 1.f, nullptr, 0.f, &inliers_);
     if (inliers_.size() < min_inliers) continue;
     bool ok = true;
     for (int it = 0; it <= params_.refit_iterations && ok; ++it) {
       ok = internal::FitPlane(f, inliers_, &normal, &d, &points);
-      if (ok && it < params_.refit_iterations) CollectInliers(f, normal, d, &inliers_);
+      if (ok && it < params_.refit_iterations)
+        CollectInliers(normal, d, 1.f, nullptr, 0.f, &inliers_);
     }
     if (!ok || inliers_.size() < min_inliers) continue;
     double sx = 0, sy = 0, sz = 0, sn = 0;

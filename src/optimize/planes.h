@@ -57,13 +57,17 @@ class PlaneLabeler {
   const PlaneParams& params() const { return params_; }
 
  private:
-  // Collects patches within rho of the plane and with a compatible normal.
-  void CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
-                      std::vector<uint32_t>* inliers) const;
-  // Same with the distance and angle tolerances scaled by `tolerance_scale`, restricted to
-  // patches within `radius_m` of `center` when `center` is not null.
-  void CollectInliers(const graph::PatchFeatures& f, const core::Vec3f& normal, float d,
-                      float tolerance_scale, const core::Vec3f* center, float radius_m,
+  // Patches with at least min_patch_points points, packed for the inlier scans.
+  struct PackedPatch {
+    core::Vec3f centroid;
+    core::Vec3f normal;
+    uint32_t index;
+  };
+  void PackPatches(const graph::PatchFeatures& f);
+  // Patches within rho (times tolerance_scale) of the plane whose normal is within the inlier
+  // angle (times tolerance_scale, capped below 90 deg) and, with a centre, within radius_m of it.
+  void CollectInliers(const core::Vec3f& normal, float d, float tolerance_scale,
+                      const core::Vec3f* center, float radius_m,
                       std::vector<uint32_t>* inliers) const;
 
   const PlaneParams params_;
@@ -77,6 +81,7 @@ class PlaneLabeler {
   std::vector<PlaneModel> hypotheses_;
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;
+  std::vector<PackedPatch> packed_;
   std::vector<uint8_t> covered_;
   std::vector<float> unary_;
   std::vector<int32_t> labels_;

@@ -45,31 +45,34 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelIm
   std::vector<Accumulator>& acc = acc_;
   const bool color = cloud.has_color();
   const int w = labels.width;
-  for (size_t i = 0; i < labels.data.size(); ++i) {
-    const uint32_t l = labels.data[i];
-    if (l == 0 || l > num_objects) continue;
-    const core::Vec3f& p = cloud.xyz[i];
-    if (!core::IsValid(p)) continue;
-    Accumulator& a = acc[l - 1];
-    const Eigen::Vector3d q(p.x, p.y, p.z);
-    a.n++;
-    a.sum += q;
-    a.sum_sq.noalias() += q * q.transpose();
-    const Eigen::Vector3f pf(p.x, p.y, p.z);
-    a.min = a.min.cwiseMin(pf);
-    a.max = a.max.cwiseMax(pf);
-    if (color) {
-      const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
-      a.r += c.r;
-      a.g += c.g;
-      a.b += c.b;
+  const int h = w > 0 ? static_cast<int>(labels.data.size() / static_cast<size_t>(w)) : 0;
+  for (int v = 0; v < h; ++v) {
+    const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
+    for (int u = 0; u < w; ++u) {
+      const size_t i = row + static_cast<size_t>(u);
+      const uint32_t l = labels.data[i];
+      if (l == 0 || l > num_objects) continue;
+      const core::Vec3f& p = cloud.xyz[i];
+      if (!core::IsValid(p)) continue;
+      Accumulator& a = acc[l - 1];
+      const Eigen::Vector3d q(p.x, p.y, p.z);
+      a.n++;
+      a.sum += q;
+      a.sum_sq.noalias() += q * q.transpose();
+      const Eigen::Vector3f pf(p.x, p.y, p.z);
+      a.min = a.min.cwiseMin(pf);
+      a.max = a.max.cwiseMax(pf);
+      if (color) {
+        const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
+        a.r += c.r;
+        a.g += c.g;
+        a.b += c.b;
+      }
+      a.umin = std::min(a.umin, u);
+      a.umax = std::max(a.umax, u);
+      a.vmin = std::min(a.vmin, v);
+      a.vmax = std::max(a.vmax, v);
     }
-    const int u = static_cast<int>(i % static_cast<size_t>(w));
-    const int v = static_cast<int>(i / static_cast<size_t>(w));
-    a.umin = std::min(a.umin, u);
-    a.umax = std::max(a.umax, u);
-    a.vmin = std::min(a.vmin, v);
-    a.vmax = std::max(a.vmax, v);
   }
 
   // Oriented boxes need the extents along the principal axes: a second pass.

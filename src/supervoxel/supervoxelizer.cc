@@ -5,10 +5,8 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Core>
-#include <Eigen/Eigenvalues>
-
 #include "core/assert.h"
+#include "geometry/moments.h"
 
 namespace clutterseg::supervoxel {
 namespace {
@@ -468,7 +466,7 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
 
   // Per-supervoxel point moments (summed over its voxels in voxel order) and neighbour lists,
   // per chunk of supervoxels.
-  constexpr size_t kStride = 10;
+  constexpr size_t kStride = geometry::kNumMoments;
   constexpr size_t kSvGrain = 256;
   accum_.resize(kStride * num_sv);
   const size_t num_sv_chunks = core::ThreadPool::NumChunks(num_sv, kSvGrain);
@@ -522,43 +520,28 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
   ForChunks(pool, num_sv, kSvGrain, [&](size_t b, size_t e) {
     for (size_t s = b; s < e; ++s) {
       const double* a = &accum_[kStride * s];
-      const double inv = 1.0 / a[0];
-      const double mx = a[1] * inv, my = a[2] * inv, mz = a[3] * inv;
-      const core::Vec3f c{static_cast<float>(mx), static_cast<float>(my), static_cast<float>(mz)};
-      out->centroid[s] = c;
       out->num_points[s] = static_cast<uint32_t>(a[0]);
       if (a[0] < 3.0) {
+        const double inv = 1.0 / a[0];
+        const core::Vec3f c{static_cast<float>(a[1] * inv), static_cast<float>(a[2] * inv),
+                            static_cast<float>(a[3] * inv)};
+        out->centroid[s] = c;
         out->normal[s] = TowardsCamera(c);
         out->curvature[s] = 0.f;
         out->eigenvalues[s] = core::Vec3f{};
         continue;
       }
-      Eigen::Matrix3d cov;
-      cov(0, 0) = a[4] * inv - mx * mx;
-      cov(0, 1) = cov(1, 0) = a[5] * inv - mx * my;
-      cov(0, 2) = cov(2, 0) = a[6] * inv - mx * mz;
-      cov(1, 1) = a[7] * inv - my * my;
-      cov(1, 2) = cov(2, 1) = a[8] * inv - my * mz;
-      cov(2, 2) = a[9] * inv - mz * mz;
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
-      solver.computeDirect(cov);
-      const Eigen::Vector3d l = solver.eigenvalues().cwiseMax(0.0);
-      Eigen::Vector3d nrm = solver.eigenvectors().col(0);
-      const double len = nrm.norm();
-      if (len > 0.0 && std::isfinite(len)) {
-        nrm /= len;
-        if (nrm.x() * mx + nrm.y() * my + nrm.z() * mz > 0.0) nrm = -nrm;
-        out->normal[s] = core::Vec3f{static_cast<float>(nrm.x()), static_cast<float>(nrm.y()),
-                                     static_cast<float>(nrm.z())};
-      } else {
-        out->normal[s] = TowardsCamera(c);
-      }
-      const double total = l.sum();
-      out->curvature[s] = total > 0.0 ? static_cast<float>(l(0) / total) : 0.f;
-      out->eigenvalues[s] =
-          core::Vec3f{static_cast<float>(l(2)), static_cast<float>(l(1)), static_cast<float>(l(0))};
+      geometry::ShapeSummary shape;
+      geometry::SummarizeMoments(a, &shape);
+      out->centroid[s] = shape.centroid;
+      out->normal[s] = shape.normal;
+      out->curvature[s] = shape.curvature;
+      out->eigenvalues[s] = shape.eigenvalues;
     }
   });
+  // The moments go out with the supervoxels (patch features start from them).
+  out->moments.assign(accum_.begin(),
+                      accum_.begin() + static_cast<std::ptrdiff_t>(kStride * num_sv));
 }
 
 }  // namespace clutterseg::supervoxel

@@ -26,6 +26,10 @@ struct Supervoxels {
   std::vector<core::Vec3f> eigenvalues;
   /// Number of member points (pixels).
   std::vector<uint32_t> num_points;
+  /// Raw moments of the member points, geometry::kNumMoments (10) per supervoxel: count, sums
+  /// of x, y, z, sums of xx, xy, xz, yy, yz, zz (metres). Empty when the producer did not
+  /// keep them; consumers then recompute them from the pixels.
+  std::vector<double> moments;
   std::vector<uint32_t> adjacency_offsets;  ///< N + 1 entries
   std::vector<uint32_t> adjacency;          ///< 2 * edges entries
 

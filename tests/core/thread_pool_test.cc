@@ -1,11 +1,28 @@
 #include "core/thread_pool.h"
 
 #include <atomic>
+#include <cstdlib>
+#include <new>
 #include <numeric>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+// Counts every operator new of this test binary (malloc itself is left alone, so sanitizers
+// keep working).
+namespace {
+std::atomic<long> g_news{0};
+}  // namespace
+
+void* operator new(std::size_t size) {
+  g_news.fetch_add(1, std::memory_order_relaxed);
+  if (void* p = std::malloc(size == 0 ? 1 : size)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 
 namespace clutterseg::core {
 namespace {
@@ -77,6 +94,38 @@ TEST(ThreadPool, SubmitRunsTasksAndCarriesExceptions) {
   EXPECT_EQ(ran.load(), 20);
   auto bad = dut.Submit([] { throw std::logic_error("task failed"); });
   EXPECT_THROW(bad.get(), std::logic_error);
+}
+
+TEST(ThreadPool, ParallelForAllocatesNothingAtSteadyState) {
+  ThreadPool dut(3);
+  std::vector<double> out(4096, 0.0);
+  auto body = [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) out[i] += 1.0;
+  };
+  dut.ParallelFor(out.size(), 64, body);  // warm-up: the workers' first wake-up
+  const long before = g_news.load();
+  for (int rep = 0; rep < 200; ++rep) dut.ParallelFor(out.size(), 64, body);
+  EXPECT_EQ(g_news.load() - before, 0);
+  for (double v : out) ASSERT_EQ(v, 201.0);
+}
+
+TEST(ThreadPool, CallersSharingThePoolDoNotInterfere) {
+  // Two threads (two pipelined segmenters) fan out on one pool at the same time: each call
+  // must see exactly its own chunks, and both must return.
+  ThreadPool dut(2);
+  auto caller = [&](std::vector<int>* hits) {
+    for (int rep = 0; rep < 300; ++rep) {
+      dut.ParallelFor(hits->size(), 7, [&](size_t b, size_t e) {
+        for (size_t i = b; i < e; ++i) ++(*hits)[i];
+      });
+    }
+  };
+  std::vector<int> a(100, 0), b(53, 0);
+  std::thread ta(caller, &a), tb(caller, &b);
+  ta.join();
+  tb.join();
+  for (int v : a) ASSERT_EQ(v, 300);
+  for (int v : b) ASSERT_EQ(v, 300);
 }
 
 }  // namespace

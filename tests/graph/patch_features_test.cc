@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "core/thread_pool.h"
+#include "supervoxel/supervoxelizer.h"
 #include "tests/graph/synthetic_tiles.h"
 
 namespace clutterseg::graph {
@@ -247,6 +248,41 @@ TEST(PatchFeatures, IdenticalForAnyThreadCount) {
     EXPECT_EQ(0, std::memcmp(f.a2d.data(), reference.a2d.data(), f.size() * sizeof(float)));
     EXPECT_EQ(f.type, reference.type);
   }
+}
+
+TEST(PatchFeatures, SupervoxelMomentsGiveThePixelResult) {
+  // The supervoxelizer hands over its members' moments; features computed from them must
+  // equal those accumulated from the pixels (up to the order of summation).
+  testing::TabletopScene scene;
+  scene.boxes.push_back({{-0.1, 0.9, 0.0}, {0.1, 1.1, 0.15}});
+  scene.boxes.push_back({{0.12, 0.95, 0.0}, {0.2, 1.05, 0.3}});
+  core::PointCloud cloud;
+  std::vector<int32_t> surface;
+  testing::Render(scene, &cloud, &surface);
+  supervoxel::Supervoxelizer svz{supervoxel::SupervoxelParams{}};
+  supervoxel::Supervoxels sv;
+  svz.Compute(cloud, nullptr, &sv);
+  ASSERT_GT(sv.size(), 100u);
+  ASSERT_EQ(sv.moments.size(), 10 * sv.size());
+  PatchFeatures from_moments;
+  PatchFeatureExtractor().Compute(cloud, sv, &from_moments);
+  sv.moments.clear();
+  PatchFeatures from_pixels;
+  PatchFeatureExtractor().Compute(cloud, sv, &from_pixels);
+  ASSERT_EQ(from_moments.size(), from_pixels.size());
+  int planar = 0;
+  for (size_t i = 0; i < sv.size(); ++i) {
+    ASSERT_EQ(from_moments.num_points[i], from_pixels.num_points[i]) << "supervoxel " << i;
+    ASSERT_GT(from_pixels.num_points[i], 0u);
+    EXPECT_NEAR(from_moments.centroid[i].z, from_pixels.centroid[i].z, 1e-6);
+    EXPECT_NEAR(from_moments.covariance[i][5], from_pixels.covariance[i][5], 1e-9);
+    EXPECT_NEAR(from_moments.curvature[i], from_pixels.curvature[i], 1e-4);
+    if (from_pixels.num_points[i] >= 30) {
+      EXPECT_GT(std::fabs(Dot(from_moments.normal[i], from_pixels.normal[i])), 0.9999f);
+    }
+    planar += from_pixels.type[i] == PatchType::kPlanar;
+  }
+  EXPECT_GT(planar, static_cast<int>(sv.size()) / 2);
 }
 
 }  // namespace

@@ -23,6 +23,12 @@ class KeyIndexMap {
       capacity <<= 1;
       ++bits;
     }
+    // Never shrink: a table sized for the largest frame so far costs only its clearing, and a
+    // smaller one would have to grow (allocate) again on the next large frame.
+    if (capacity < keys_.size()) {
+      capacity = keys_.size();
+      bits = bits_;
+    }
     if (capacity != keys_.size()) {
       keys_.assign(capacity, kEmptyKey);
       values_.resize(capacity);

@@ -1,0 +1,109 @@
+#include "geometry/moments.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace clutterseg::geometry {
+
+void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]) {
+  const double a00 = c[0], a01 = c[1], a02 = c[2], a11 = c[3], a12 = c[4], a22 = c[5];
+  // Eigenvalues of the shifted, scaled matrix B = (A - m I) / sqrt(p): 2 cos(phi + 2 pi k / 3).
+  const double m = (a00 + a11 + a22) / 3.0;
+  const double d0 = a00 - m, d1 = a11 - m, d2 = a22 - m;
+  const double off = a01 * a01 + a02 * a02 + a12 * a12;
+  const double p = (d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * off) / 6.0;
+  double l1 = m, l2 = m, l3 = m;
+  if (p > 0.0) {
+    const double sp = std::sqrt(p);
+    const double inv = 1.0 / sp;
+    const double b00 = d0 * inv, b11 = d1 * inv, b22 = d2 * inv;
+    const double b01 = a01 * inv, b02 = a02 * inv, b12 = a12 * inv;
+    const double half_det = 0.5 * (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) +
+                                   b02 * (b01 * b12 - b11 * b02));
+    const double phi = std::acos(std::clamp(half_det, -1.0, 1.0)) / 3.0;
+    constexpr double kTwoThirdsPi = 2.0943951023931954923;
+    l1 = m + 2.0 * sp * std::cos(phi);
+    l3 = m + 2.0 * sp * std::cos(phi + kTwoThirdsPi);
+    l2 = 3.0 * m - l1 - l3;
+  }
+  eigenvalues[0] = std::max(l1, 0.0);
+  eigenvalues[1] = std::max(l2, 0.0);
+  eigenvalues[2] = std::max(l3, 0.0);
+
+  // The eigenvector of l3 is orthogonal to the rows of A - l3 I: the longest cross product of
+  // two rows. When l3 is repeated the rows are parallel; any vector orthogonal to them is one.
+  const double r0[3] = {a00 - l3, a01, a02};
+  const double r1[3] = {a01, a11 - l3, a12};
+  const double r2[3] = {a02, a12, a22 - l3};
+  auto cross = [](const double* a, const double* b, double* out) {
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+    return out[0] * out[0] + out[1] * out[1] + out[2] * out[2];
+  };
+  double c01[3], c02[3], c12[3];
+  const double n01 = cross(r0, r1, c01), n02 = cross(r0, r2, c02), n12 = cross(r1, r2, c12);
+  const double* best = c01;
+  double best_n = n01;
+  if (n02 > best_n) best = c02, best_n = n02;
+  if (n12 > best_n) best = c12, best_n = n12;
+  const double row_scale = std::max({r0[0] * r0[0] + r0[1] * r0[1] + r0[2] * r0[2],
+                                     r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2],
+                                     r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2]});
+  if (best_n > 1e-20 * row_scale * row_scale && best_n > 0.0) {
+    const double s = 1.0 / std::sqrt(best_n);
+    vec[0] = best[0] * s;
+    vec[1] = best[1] * s;
+    vec[2] = best[2] * s;
+    return;
+  }
+  // Rank <= 1: orthogonal to the longest row (or any unit vector for a zero matrix).
+  const double* r = r0;
+  double rn = r0[0] * r0[0] + r0[1] * r0[1] + r0[2] * r0[2];
+  const double rn1 = r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2];
+  const double rn2 = r2[0] * r2[0] + r2[1] * r2[1] + r2[2] * r2[2];
+  if (rn1 > rn) r = r1, rn = rn1;
+  if (rn2 > rn) r = r2, rn = rn2;
+  if (!(rn > 0.0)) {
+    vec[0] = 0.0;
+    vec[1] = 0.0;
+    vec[2] = 1.0;
+    return;
+  }
+  // Cross with the axis least aligned with r.
+  const double ax = std::fabs(r[0]), ay = std::fabs(r[1]), az = std::fabs(r[2]);
+  const double e[3] = {ax <= ay && ax <= az ? 1.0 : 0.0, ay < ax && ay <= az ? 1.0 : 0.0,
+                       az < ax && az < ay ? 1.0 : 0.0};
+  double o[3];
+  const double on = cross(r, e, o);
+  const double s = 1.0 / std::sqrt(on);
+  vec[0] = o[0] * s;
+  vec[1] = o[1] * s;
+  vec[2] = o[2] * s;
+}
+
+void SummarizeMoments(const double* m, ShapeSummary* out) {
+  const double inv = 1.0 / m[0];
+  const double mx = m[1] * inv, my = m[2] * inv, mz = m[3] * inv;
+  const double cov[6] = {m[4] * inv - mx * mx, m[5] * inv - mx * my, m[6] * inv - mx * mz,
+                         m[7] * inv - my * my, m[8] * inv - my * mz, m[9] * inv - mz * mz};
+  out->centroid =
+      core::Vec3f{static_cast<float>(mx), static_cast<float>(my), static_cast<float>(mz)};
+  for (int k = 0; k < 6; ++k) out->covariance[static_cast<size_t>(k)] = static_cast<float>(cov[k]);
+
+  double nrm[3], l[3];
+  SmallestEigenvector(cov, nrm, l);
+  if (nrm[0] * mx + nrm[1] * my + nrm[2] * mz > 0.0) {
+    nrm[0] = -nrm[0];
+    nrm[1] = -nrm[1];
+    nrm[2] = -nrm[2];
+  }
+  out->normal = core::Vec3f{static_cast<float>(nrm[0]), static_cast<float>(nrm[1]),
+                            static_cast<float>(nrm[2])};
+  out->eigenvalues =
+      core::Vec3f{static_cast<float>(l[0]), static_cast<float>(l[1]), static_cast<float>(l[2])};
+  const double total = l[0] + l[1] + l[2];
+  out->curvature = total > 0.0 ? static_cast<float>(l[2] / total) : 0.f;
+}
+
+}  // namespace clutterseg::geometry

@@ -1,0 +1,37 @@
+#pragma once
+
+#include <array>
+
+#include "core/types.h"
+
+namespace clutterseg::geometry {
+
+/// Raw moments of a point set, in this order: count, sums of x, y, z, and sums of the
+/// products xx, xy, xz, yy, yz, zz (metres, square metres). Moments of a union of disjoint
+/// sets are the sums of their moments.
+inline constexpr int kNumMoments = 10;
+
+/// Second-order shape of a point set.
+struct ShapeSummary {
+  core::Vec3f centroid;               ///< mean, metres
+  std::array<float, 6> covariance{};  ///< xx, xy, xz, yy, yz, zz (population), m^2
+  core::Vec3f eigenvalues;            ///< of the covariance, l1 >= l2 >= l3 >= 0, m^2
+  /// Unit eigenvector of l3 oriented towards the camera at the origin (normal . centroid <= 0);
+  /// the direction to the camera when the eigenvector is degenerate.
+  core::Vec3f normal;
+  float curvature{0.f};  ///< surface variation l3 / (l1 + l2 + l3); 0 when all are 0
+};
+
+/// Smallest eigenpair of the symmetric 3x3 matrix with entries `c` = (xx, xy, xz, yy, yz, zz):
+/// fills the unit eigenvector of the smallest eigenvalue (sign arbitrary; some unit vector
+/// orthogonal to the dominant direction when that eigenvalue is repeated) and the eigenvalues
+/// l1 >= l2 >= l3 (clamped at 0). Closed form (trigonometric roots, eigenvector from cross
+/// products), about a third of the cost of Eigen's direct solver, which computes all three
+/// eigenvectors. Pure function; thread-safe.
+void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]);
+
+/// Covariance analysis of the points whose moments are `m` (kNumMoments values, count > 0).
+/// Pure function; thread-safe.
+void SummarizeMoments(const double* m, ShapeSummary* out);
+
+}  // namespace clutterseg::geometry
