@@ -157,16 +157,24 @@ double AlphaExpansion::Minimize(const PottsEnergy& en, int max_cycles,
   }
   double energy = en.Evaluate(*labels);
   if (en.num_labels == 1 || n == 0) return energy;
+  // An expansion move is optimal for its alpha: expanding alpha again before any other move
+  // changed the labels cannot lower the energy, so it is skipped (the result is the same; the
+  // last, confirming cycle mostly disappears).
+  expanded_at_.assign(L, -1);
+  int64_t version = 0;  // number of accepted moves so far
   for (int cycle = 0; cycle < max_cycles; ++cycle) {
     ++last_cycles_;
     bool improved = false;
     for (int alpha = 0; alpha < en.num_labels; ++alpha) {
+      if (expanded_at_[static_cast<size_t>(alpha)] == version) continue;
       const double e = ExpandFrom(en, alpha, energy, labels);
       if (e < energy) {
         energy = e;
         improved = true;
         ++last_moves_;
+        ++version;
       }
+      expanded_at_[static_cast<size_t>(alpha)] = version;
     }
     if (!improved) break;
   }

@@ -67,6 +67,7 @@ class AlphaExpansion {
   std::vector<double> cost_keep_;
   std::vector<double> cost_alpha_;
   std::vector<int32_t> proposal_;
+  std::vector<int64_t> expanded_at_;  // per label: accepted moves before its last expansion
   int last_cycles_{0};
   int last_moves_{0};
 };
