@@ -1,6 +1,7 @@
 #include "optimize/planes.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -196,6 +197,7 @@ void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::Patch
                              std::to_string(sv.adjacency_offsets.size()) + " entries for " +
                              std::to_string(n) + " supervoxels");
   }
+  last_expansion_ms_ = 0.0;
   FindPlanes(f, &hypotheses_);
   out->num_hypotheses = static_cast<int>(hypotheses_.size());
   out->planes.clear();
@@ -235,7 +237,10 @@ void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::Patch
   energy.neighbors = sv.adjacency;
   energy.uniform_weight = params_.smoothness_weight;
   labels_.clear();
+  const auto t0 = std::chrono::steady_clock::now();
   out->energy = expansion_.Minimize(energy, params_.max_expansion_cycles, &labels_);
+  last_expansion_ms_ =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   out->expansion_cycles = expansion_.last_cycles();
 
   // Keep planes that received supervoxels, renumbered in acceptance order.

@@ -55,6 +55,8 @@ class PlaneLabeler {
   void FindPlanes(const graph::PatchFeatures& features, std::vector<PlaneModel>* planes);
 
   const PlaneParams& params() const { return params_; }
+  /// Wall time of the alpha-expansion inside the last Compute, milliseconds.
+  double last_expansion_ms() const { return last_expansion_ms_; }
 
  private:
   // Patches with at least min_patch_points points, packed for the inlier scans.
@@ -82,6 +84,7 @@ class PlaneLabeler {
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;
   std::vector<PackedPatch> packed_;
+  double last_expansion_ms_{0.0};
   std::vector<uint8_t> covered_;
   std::vector<float> unary_;
   std::vector<int32_t> labels_;

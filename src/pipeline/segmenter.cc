@@ -104,6 +104,8 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   const supervoxel::SupervoxelTimings& st = m.supervoxelizer.timings();
   times.voxelize_ms = st.voxelize_ms + st.adjacency_ms;
   times.normals_ms = st.normals_ms;
+  times.seeding_ms = st.seeding_ms;
+  times.growth_ms = st.growth_ms;
   times.supervoxels_ms = MsSince(t0);
   result->num_supervoxels = static_cast<uint32_t>(m.sv.size());
 
@@ -117,12 +119,12 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
 
   t0 = Clock::now();
   m.plane_labeler.Compute(m.sv, m.patch, &m.planes);
-  times.planes_ms = MsSince(t0);
+  times.expansion_ms = m.plane_labeler.last_expansion_ms();
+  times.planes_ms = std::max(0.0, MsSince(t0) - times.expansion_ms);
 
   t0 = Clock::now();
   const uint32_t num_objects = m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch,
                                              m.link, m.planes, &result->labels, &result->planes);
-  times.expansion_ms = 0.0;  // included in planes_ms (PlaneLabeler runs the expansion)
   m.objects.Compute(cloud, result->labels, num_objects, result->planes, &result->objects);
   times.objects_ms = MsSince(t0);
   times.total_ms = MsSince(t_start);

@@ -17,10 +17,13 @@ STAGES = [
     ("points", "points", "#9e9e9e"),
     ("voxelize", "voxelize + adjacency", "#1f77b4"),
     ("normals", "voxel normals", "#aec7e8"),
-    ("supervoxels", "supervoxels (seeds, growth, output)", "#2ca02c"),
+    ("seeding", "seeding", "#2ca02c"),
+    ("growth", "supervoxel growth", "#5ab55a"),
+    ("sv statistics", "supervoxel statistics", "#b5dfb5"),
     ("features", "patch features", "#98df8a"),
     ("linkage", "linkage", "#ff7f0e"),
-    ("planes+expansion", "planes + alpha-expansion", "#9467bd"),
+    ("planes", "plane hypotheses", "#9467bd"),
+    ("expansion", "alpha-expansion", "#c5b0d5"),
     ("refine+objects", "refine + objects", "#8c564b"),
 ]
 PCL_STAGES = [
