@@ -7,28 +7,41 @@ namespace clutterseg::geometry {
 
 void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]) {
   const double a00 = c[0], a01 = c[1], a02 = c[2], a11 = c[3], a12 = c[4], a22 = c[5];
-  // Eigenvalues of the shifted, scaled matrix B = (A - m I) / sqrt(p): 2 cos(phi + 2 pi k / 3).
-  const double m = (a00 + a11 + a22) / 3.0;
-  const double d0 = a00 - m, d1 = a11 - m, d2 = a22 - m;
-  const double off = a01 * a01 + a02 * a02 + a12 * a12;
-  const double p = (d0 * d0 + d1 * d1 + d2 * d2 + 2.0 * off) / 6.0;
-  double l1 = m, l2 = m, l3 = m;
-  if (p > 0.0) {
-    const double sp = std::sqrt(p);
-    const double inv = 1.0 / sp;
-    const double b00 = d0 * inv, b11 = d1 * inv, b22 = d2 * inv;
-    const double b01 = a01 * inv, b02 = a02 * inv, b12 = a12 * inv;
-    const double half_det = 0.5 * (b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) +
-                                   b02 * (b01 * b12 - b11 * b02));
-    const double phi = std::acos(std::clamp(half_det, -1.0, 1.0)) / 3.0;
-    constexpr double kTwoThirdsPi = 2.0943951023931954923;
-    l1 = m + 2.0 * sp * std::cos(phi);
-    l3 = m + 2.0 * sp * std::cos(phi + kTwoThirdsPi);
-    l2 = 3.0 * m - l1 - l3;
+  // Smallest root of the characteristic polynomial f(l) = det(A - l I) by Newton's method
+  // from l = 0: A is positive semi-definite, so 0 <= l3 and f is decreasing and convex left of
+  // l3; the iterates rise monotonically to it. Nearly flat patches (l3 << l2) converge in
+  // two or three steps. Work on A / trace, whose eigenvalues lie in [0, 1].
+  const double trace = a00 + a11 + a22;
+  double l1 = 0.0, l2 = 0.0, l3 = 0.0;
+  if (trace > 0.0) {
+    const double s = 1.0 / trace;
+    const double b00 = a00 * s, b01 = a01 * s, b02 = a02 * s, b11 = a11 * s, b12 = a12 * s,
+                 b22 = a22 * s;
+    // f(l) = -l^3 + l^2 - m2 l + m3 (the trace of B is 1).
+    const double m2 = b00 * b11 - b01 * b01 + b00 * b22 - b02 * b02 + b11 * b22 - b12 * b12;
+    const double m3 = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) +
+                      b02 * (b01 * b12 - b11 * b02);
+    double l = 0.0;
+    for (int it = 0; it < 60; ++it) {
+      const double f = ((-l + 1.0) * l - m2) * l + m3;
+      const double df = (-3.0 * l + 2.0) * l - m2;
+      if (!(df < 0.0)) break;  // at a repeated root (or rounding past it)
+      const double step = f / df;
+      l -= step;
+      if (!(std::fabs(step) > 1e-15 * (l + 1e-12))) break;
+    }
+    l = std::clamp(l, 0.0, 1.0 / 3.0);
+    // The other two: l1 + l2 = 1 - l3 and l1 l2 = m2 - l3 (l1 + l2).
+    const double sum = 1.0 - l;
+    const double prod = std::max(0.0, m2 - l * sum);
+    const double disc = std::sqrt(std::max(0.0, sum * sum - 4.0 * prod));
+    l1 = 0.5 * (sum + disc) * trace;
+    l2 = std::max(0.5 * (sum - disc), l) * trace;
+    l3 = l * trace;
   }
-  eigenvalues[0] = std::max(l1, 0.0);
-  eigenvalues[1] = std::max(l2, 0.0);
-  eigenvalues[2] = std::max(l3, 0.0);
+  eigenvalues[0] = l1;
+  eigenvalues[1] = l2;
+  eigenvalues[2] = l3;
 
   // The eigenvector of l3 is orthogonal to the rows of A - l3 I: the longest cross product of
   // two rows. When l3 is repeated the rows are parallel; any vector orthogonal to them is one.

@@ -257,6 +257,8 @@ void Supervoxelizer::Grow(int max_layers) {
   const VoxelFeature* feature = feature_.data();
   const float ws = spatial_weight_;
   const float wn = params_.normal_importance;
+  // A local copy: the member would be reloaded after every frontier push.
+  const bool use_color = use_color_;
   for (int layer = 0; layer < max_layers && !frontier_.empty(); ++layer) {
     next_frontier_.clear();
     for (const auto& [s, v] : frontier_) {
@@ -269,7 +271,7 @@ void Supervoxelizer::Grow(int max_layers) {
         Claim& cl = claim[n];
         if (cl.owner == label) continue;
         float c;
-        if (use_color_) {
+        if (use_color) {
           c = Cost(s, n);
         } else {
           const VoxelFeature& f = feature[n];

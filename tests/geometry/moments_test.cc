@@ -45,8 +45,9 @@ TEST(SmallestEigenvector, MatchesEigenOnRandomCovariances) {
                             scale * std::pow(10.0, -(trial % 7)));
     const Eigen::Matrix3d a = q * d.asDiagonal() * q.transpose();
     const double c[6] = {a(0, 0), a(0, 1), a(0, 2), a(1, 1), a(1, 2), a(2, 2)};
-    // The trigonometric roots lose about half the digits where two eigenvalues coincide.
-    CheckAgainstEigen(c, 1e-7 * scale, 1e-7 * scale);
+    // Newton's method converges only linearly to a repeated smallest root: a few digits are
+    // lost where eigenvalues coincide (harmless: the normal is then arbitrary anyway).
+    CheckAgainstEigen(c, 1e-5 * scale, 1e-7 * scale);
   }
 }
 
