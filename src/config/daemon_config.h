@@ -37,7 +37,7 @@ struct DaemonConfig {
   std::string labels_channel{"CLUTTERSEG_LABELS"};         ///< label_image_t channel
   std::string status_channel{"CLUTTERSEG_STATUS"};         ///< status_t channel
   bool publish_labels{true};                               ///< publish a label_image_t per frame
-  LabelCompression label_compression{LabelCompression::kZlib};
+  LabelCompression label_compression{LabelCompression::kRle};
 
   int queue_capacity{2};        ///< frames waiting between capture and processing (drop-oldest)
   int threads{0};               ///< worker threads for segmentation; 0 = number of cores
