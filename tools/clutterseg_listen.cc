@@ -6,14 +6,16 @@
 #include <atomic>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
-#include <lcm/lcm-cpp.hpp>
 
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "daemon/lcm_bus.h"
 #include "daemon/messages.h"
 #include "io/png_io.h"
 #include "pipeline/overlay.h"
@@ -33,14 +35,14 @@ struct Listener {
   clutterseg::core::LabelImage labels;
   clutterseg::core::ColorImage image;
 
-  void OnObjects(const lcm::ReceiveBuffer*, const std::string& channel,
-                 const clutterseg::objects_t* m) {
+  void OnObjects(std::string_view channel, const clutterseg::objects_t& msg) {
+    const clutterseg::objects_t* m = &msg;
     std::printf(
-        "%s frame %lld utime %lld camera %s: %d objects, %d planes, segment %.1f ms, "
+        "%.*s frame %lld utime %lld camera %s: %d objects, %d planes, segment %.1f ms, "
         "capture->publish %.1f ms\n",
-        channel.c_str(), static_cast<long long>(m->frame_seq), static_cast<long long>(m->utime),
-        m->camera_name.c_str(), m->num_objects, m->num_planes, m->times.total_ms,
-        m->capture_to_publish_ms);
+        static_cast<int>(channel.size()), channel.data(), static_cast<long long>(m->frame_seq),
+        static_cast<long long>(m->utime), m->camera_name.c_str(), m->num_objects, m->num_planes,
+        m->times.total_ms, m->capture_to_publish_ms);
     for (const auto& p : m->planes) {
       std::printf("  plane %d%s n (%.3f %.3f %.3f) d %.3f m, %d points\n", p.id,
                   p.is_support ? " [support]" : "", p.normal[0], p.normal[1], p.normal[2], p.d,
@@ -63,7 +65,8 @@ struct Listener {
     }
   }
 
-  void OnLabels(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::label_image_t* m) {
+  void OnLabels(const clutterseg::label_image_t& msg) {
+    const clutterseg::label_image_t* m = &msg;
     if (count_reached && m->frame_seq >= last_seq) g_stop.store(true);
     if (png_dir.empty()) return;
     try {
@@ -78,17 +81,17 @@ struct Listener {
     }
   }
 
-  void OnStatus(const lcm::ReceiveBuffer*, const std::string& channel,
-                const clutterseg::status_t* s) {
+  void OnStatus(std::string_view channel, const clutterseg::status_t& msg) {
+    const clutterseg::status_t* s = &msg;
     if (quiet_status) return;
     std::printf(
-        "%s %s: %.1f fps, segment p50 %.1f p99 %.1f ms, capture->publish p50 %.1f p99 "
+        "%.*s %s: %.1f fps, segment p50 %.1f p99 %.1f ms, capture->publish p50 %.1f p99 "
         "%.1f ms, queue %d/%d, captured %lld processed %lld dropped %lld, %s%s%s\n",
-        channel.c_str(), s->camera_name.c_str(), s->fps, s->segment_p50_ms, s->segment_p99_ms,
-        s->capture_to_publish_p50_ms, s->capture_to_publish_p99_ms, s->queue_depth,
-        s->queue_capacity, static_cast<long long>(s->frames_captured),
-        static_cast<long long>(s->frames_processed), static_cast<long long>(s->frames_dropped),
-        s->device_state_name.c_str(),
+        static_cast<int>(channel.size()), channel.data(), s->camera_name.c_str(), s->fps,
+        s->segment_p50_ms, s->segment_p99_ms, s->capture_to_publish_p50_ms,
+        s->capture_to_publish_p99_ms, s->queue_depth, s->queue_capacity,
+        static_cast<long long>(s->frames_captured), static_cast<long long>(s->frames_processed),
+        static_cast<long long>(s->frames_dropped), s->device_state_name.c_str(),
         s->last_error.empty() ? "" : ", last error: ", s->last_error.c_str());
     std::fflush(stdout);
   }
@@ -118,23 +121,38 @@ int main(int argc, char** argv) {
     return app.exit(e) == 0 ? 0 : 2;
   }
   if (!listener.png_dir.empty()) std::filesystem::create_directories(listener.png_dir);
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr,
-                 "clutterseg-listen: cannot open LCM URL '%s' (udpm needs a multicast route: "
-                 "sudo ip route add 224.0.0.0/4 dev lo)\n",
-                 url.c_str());
+  std::unique_ptr<clutterseg::daemon::LcmBus> bus;
+  try {
+    bus = std::make_unique<clutterseg::daemon::LcmBus>(url);
+  } catch (const clutterseg::daemon::LcmUnavailableError& e) {
+    std::fprintf(stderr, "clutterseg-listen: %s\n", e.what());
     return 4;
   }
-  lcm.subscribe(objects_channel, &Listener::OnObjects, &listener);
-  lcm.subscribe(labels_channel, &Listener::OnLabels, &listener);
-  lcm.subscribe(status_channel, &Listener::OnStatus, &listener);
-  signal(SIGINT, OnSignal);
-  signal(SIGTERM, OnSignal);
-  while (!g_stop.load()) {
-    const int n = lcm.handleTimeout(200);
-    if (n < 0) break;                             // end of a file:// log, or an error
-    if (n == 0 && listener.count_reached) break;  // no label image follows
+  try {
+    bus->Subscribe<clutterseg::objects_t>(
+        objects_channel, [&listener](std::string_view channel, const clutterseg::objects_t& m) {
+          listener.OnObjects(channel, m);
+        });
+    bus->Subscribe<clutterseg::label_image_t>(
+        labels_channel, [&listener](const clutterseg::label_image_t& m) { listener.OnLabels(m); });
+    bus->Subscribe<clutterseg::status_t>(
+        status_channel, [&listener](std::string_view channel, const clutterseg::status_t& m) {
+          listener.OnStatus(channel, m);
+        });
+    signal(SIGINT, OnSignal);
+    signal(SIGTERM, OnSignal);
+    while (!g_stop.load()) {
+      const int n = bus->Handle(200);
+      if (n < 0) break;                             // end of a file:// log, or an error
+      if (n == 0 && listener.count_reached) break;  // no label image follows
+    }
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "clutterseg-listen: error: %s\n", e.what());
+    return 1;
+  }
+  if (bus->decode_failures() > 0) {
+    std::fprintf(stderr, "clutterseg-listen: %llu message(s) could not be decoded\n",
+                 static_cast<unsigned long long>(bus->decode_failures()));
   }
   return 0;
 }

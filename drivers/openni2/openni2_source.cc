@@ -1,6 +1,8 @@
 #include "drivers/openni2/openni2_source.h"
 
 #include <OpenNI.h>
+#include <dlfcn.h>
+#include <link.h>
 
 #include <algorithm>
 #include <atomic>
@@ -28,6 +30,30 @@ bool g_openni_initialized = false;
 std::string ExtendedError() {
   const char* e = openni::OpenNI::getExtendedError();
   return (e != nullptr && e[0] != '\0') ? std::string(e) : std::string("no details");
+}
+
+// OpenNI2 dlopen()s its device drivers (libOniFile, libPS1080, ...) in initialize() and
+// dlclose()s them in shutdown() or at exit, while threads they started may still be ending
+// and objects they allocated are still alive. Marking the loaded drivers RTLD_NODELETE keeps
+// their code mapped until the process ends: no thread can run in unmapped code, and
+// LeakSanitizer and ThreadSanitizer can still name the drivers in reports at exit (their
+// suppression files match these libraries by name).
+void PinOpenNI2Drivers() {
+  std::vector<std::string> drivers;
+  dl_iterate_phdr(
+      [](dl_phdr_info* info, size_t, void* data) {
+        const char* name = info->dlpi_name;
+        if (name != nullptr && std::strstr(name, "/OpenNI2/Drivers/") != nullptr) {
+          static_cast<std::vector<std::string>*>(data)->emplace_back(name);
+        }
+        return 0;
+      },
+      &drivers);
+  for (const std::string& path : drivers) {
+    // RTLD_NOLOAD: only promotes the flags of the loaded library. The extra reference is
+    // deliberately never closed.
+    (void)dlopen(path.c_str(), RTLD_NOW | RTLD_NOLOAD | RTLD_NODELETE);
+  }
 }
 
 bool LooksLikeFile(const std::string& uri) {
@@ -110,6 +136,7 @@ void InitializeOpenNI2() {
     throw std::runtime_error("OpenNI2 initialization failed (status " +
                              std::to_string(static_cast<int>(rc)) + "): " + ExtendedError());
   }
+  PinOpenNI2Drivers();
   g_openni_initialized = true;
 }
 
@@ -448,6 +475,16 @@ struct OpenNI2Source::Impl {
     open = false;
   }
 
+  // Rows of `f` whose `row_bytes` lie inside the frame's data (all of them for a sound frame).
+  static int CompleteRows(const openni::VideoFrameRef& f, int row_bytes) {
+    const int stride = f.getStrideInBytes();
+    const int size = f.getDataSize();
+    if (f.getData() == nullptr || stride < row_bytes || size < row_bytes || row_bytes <= 0) {
+      return 0;
+    }
+    return std::min(f.getHeight(), 1 + (size - row_bytes) / stride);
+  }
+
   void CopyDepth(const openni::VideoFrameRef& f, core::DepthImage* out) const {
     const int w = f.getWidth();
     const int h = f.getHeight();
@@ -456,7 +493,11 @@ struct OpenNI2Source::Impl {
     out->data.resize(static_cast<size_t>(w) * h);
     const auto* base = static_cast<const uint8_t*>(f.getData());
     const int stride = f.getStrideInBytes();
-    for (int v = 0; v < h; ++v) {
+    const int rows = CompleteRows(f, w * static_cast<int>(sizeof(uint16_t)));
+    // Rows a short frame (a damaged recording) does not carry read as no measurement.
+    std::fill(out->data.begin() + static_cast<std::ptrdiff_t>(rows) * w, out->data.end(),
+              uint16_t{0});
+    for (int v = 0; v < rows; ++v) {
       const auto* row = reinterpret_cast<const uint16_t*>(base + static_cast<size_t>(v) * stride);
       uint16_t* dst = out->data.data() + static_cast<size_t>(v) * w;
       if (depth_format == openni::PIXEL_FORMAT_DEPTH_100_UM) {
@@ -475,7 +516,10 @@ struct OpenNI2Source::Impl {
     out->data.resize(static_cast<size_t>(w) * h);
     const auto* base = static_cast<const uint8_t*>(f.getData());
     const int stride = f.getStrideInBytes();
-    for (int v = 0; v < h; ++v) {
+    const int rows = CompleteRows(f, w * 3);
+    std::fill(out->data.begin() + static_cast<std::ptrdiff_t>(rows) * w, out->data.end(),
+              core::Rgb8{});
+    for (int v = 0; v < rows; ++v) {
       std::memcpy(out->data.data() + static_cast<size_t>(v) * w,
                   base + static_cast<size_t>(v) * stride, static_cast<size_t>(w) * 3);
     }

@@ -1,8 +1,30 @@
 #include "daemon/lcm_bus.h"
 
+#include <exception>
+#include <stdexcept>
+#include <utility>
+
 #include <lcm/lcm-cpp.hpp>
+#include <lcm/lcm.h>
 
 namespace clutterseg::daemon {
+
+// One SubscribeRaw() registration: LCM's C API calls OnMessage with it as user data.
+struct LcmBus::Subscription {
+  LcmBus* bus{nullptr};
+  RawHandler handler;
+  lcm_subscription_t* c_subscription{nullptr};
+
+  static void OnMessage(const lcm_recv_buf_t* rbuf, const char* channel, void* user) noexcept {
+    auto* self = static_cast<Subscription*>(user);
+    try {
+      self->handler(channel != nullptr ? std::string_view(channel) : std::string_view(),
+                    static_cast<const uint8_t*>(rbuf->data), rbuf->data_size);
+    } catch (...) {  // nothing may escape into LCM's C code
+      if (!self->bus->handler_error_) self->bus->handler_error_ = std::current_exception();
+    }
+  }
+};
 
 std::string MulticastRouteHelp() {
   return "LCM's udpm:// provider needs a multicast route. On Linux, for this machine only:\n"
@@ -32,7 +54,39 @@ LcmBus::LcmBus(const std::string& url) : url_(url) {
   }
 }
 
-LcmBus::~LcmBus() = default;
+LcmBus::~LcmBus() {
+  if (lcm_) {
+    for (const auto& s : subscriptions_) {
+      if (s->c_subscription != nullptr) {
+        lcm_unsubscribe(lcm_->getUnderlyingLCM(), s->c_subscription);
+      }
+    }
+  }
+  subscriptions_.clear();
+  lcm_.reset();
+}
+
+void LcmBus::SubscribeRaw(const std::string& channel, RawHandler handler) {
+  if (!handler) throw std::invalid_argument("LcmBus::SubscribeRaw: empty handler for " + channel);
+  auto s = std::make_unique<Subscription>();
+  s->bus = this;
+  s->handler = std::move(handler);
+  s->c_subscription =
+      lcm_subscribe(lcm_->getUnderlyingLCM(), channel.c_str(), &Subscription::OnMessage, s.get());
+  if (s->c_subscription == nullptr) {
+    throw std::runtime_error("cannot subscribe to LCM channel '" + channel + "' on '" + url_ + "'");
+  }
+  subscriptions_.push_back(std::move(s));
+}
+
+int LcmBus::Handle(int timeout_ms) {
+  const int rc = lcm_->handleTimeout(timeout_ms < 0 ? 0 : timeout_ms);
+  if (handler_error_) {
+    std::exception_ptr error = std::exchange(handler_error_, nullptr);
+    std::rethrow_exception(error);
+  }
+  return rc;
+}
 
 bool LcmBus::Publish(const std::string& channel, const void* data, size_t size) {
   if (size > static_cast<size_t>(INT32_MAX) ||

@@ -23,6 +23,7 @@
 #include "config/daemon_config.h"
 #include "daemon/daemon.h"
 #include "daemon/lcm_bus.h"
+#include "daemon/lcm_url.h"
 #include "daemon/log.h"
 #include "daemon/source_factory.h"
 
@@ -72,7 +73,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
   bool stopping = false;
   for (;;) {
     pollfd pfd{signal_fd, POLLIN, 0};
-    if (poll(&pfd, 1, 100) > 0 && (pfd.revents & POLLIN)) {
+    if (poll(&pfd, 1, 20) > 0 && (pfd.revents & POLLIN)) {
       signalfd_siginfo info{};
       if (read(signal_fd, &info, sizeof(info)) == static_cast<ssize_t>(sizeof(info))) {
         const int sig = static_cast<int>(info.ssi_signo);
@@ -164,6 +165,11 @@ int Run(int argc, char** argv) {
   }
   SetLogLevel(cfg.log_level);
 
+  if (const std::string why = CheckLcmUrl(cfg.lcm_url); !why.empty()) {
+    std::fprintf(stderr, "clutterseg: configuration error: lcm.url = '%s': %s\n",
+                 cfg.lcm_url.c_str(), why.c_str());
+    return kExitBadConfig;
+  }
   std::unique_ptr<LcmBus> bus;
   try {
     bus = std::make_unique<LcmBus>(cfg.lcm_url);
@@ -220,9 +226,24 @@ int Run(int argc, char** argv) {
                              std::to_string(s.publish_failures) + " publish failures" +
                              (code == kExitOk ? "" : "; error: " + daemon->error()));
   }
+  // Close LCM (a file:// log is flushed and complete) before the OpenNI2 shutdown, which takes
+  // about half a second; a second signal that arrives meanwhile stays pending and is ignored.
+  bus.reset();
   ShutdownSourceDrivers();
   close(signal_fd);
   return code;
+}
+
+// Blocks the stop and reload signals before main() (after the shared libraries are loaded and
+// initialised), so that a signal sent right after start-up is taken by the signalfd in Run()
+// and ends the daemon in order instead of killing it with the default action.
+__attribute__((constructor)) void BlockSignalsEarly() {
+  sigset_t mask;
+  sigemptyset(&mask);
+  sigaddset(&mask, SIGINT);
+  sigaddset(&mask, SIGTERM);
+  sigaddset(&mask, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &mask, nullptr);
 }
 
 }  // namespace

@@ -43,8 +43,13 @@ bool HasPcdFiles(const std::filesystem::path& dir) {
 SourceKind ClassifySource(const std::string& source) {
   if (source == "device" || source.rfind("device:", 0) == 0) return SourceKind::kDevice;
   if (source == "synthetic") return SourceKind::kSynthetic;
-  if (EndsWith(source, ".oni") || EndsWith(source, ".ONI")) return SourceKind::kOniFile;
   std::error_code ec;
+  if (EndsWith(source, ".oni") || EndsWith(source, ".ONI")) {
+    if (std::filesystem::is_directory(source, ec)) {
+      throw SourceOpenError("source '" + source + "' is a directory, not an .oni recording");
+    }
+    return SourceKind::kOniFile;
+  }
   if (std::filesystem::is_directory(source, ec)) {
     return HasPcdFiles(source) ? SourceKind::kPcdDirectory : SourceKind::kDepthPngDirectory;
   }

@@ -40,6 +40,8 @@ class Linkage {
  public:
   /// @throws std::invalid_argument when `params` fail validation.
   explicit Linkage(const LinkageParams& params, core::ThreadPool* pool = nullptr);
+  /// Replaces the pool (nullable) for the following calls.
+  void set_pool(core::ThreadPool* pool) { pool_ = pool; }
 
   /// `features` must have one entry per supervoxel of `supervoxels` (centroids, normals and
   /// types are used).

@@ -59,6 +59,8 @@ class PatchFeatureExtractor {
  public:
   /// `pool` may be null (single-threaded) and must outlive the extractor.
   explicit PatchFeatureExtractor(core::ThreadPool* pool = nullptr) : pool_(pool) {}
+  /// Replaces the pool (nullable) for the following calls.
+  void set_pool(core::ThreadPool* pool) { pool_ = pool; }
 
   /// Fills `features` with one entry per supervoxel of `supervoxels`, reading the points of
   /// `cloud` (organized, same width and height as `supervoxels`). Pixels with label -1 or an

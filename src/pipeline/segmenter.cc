@@ -54,6 +54,12 @@ Segmenter::~Segmenter() = default;
 
 const SegmenterParams& Segmenter::params() const { return impl_->params; }
 
+void Segmenter::SetPool(core::ThreadPool* pool) {
+  impl_->pool = pool;
+  impl_->features.set_pool(pool);
+  impl_->linkage.set_pool(pool);
+}
+
 void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
                         SegmentationResult* result) {
   Impl& m = *impl_;

@@ -36,6 +36,11 @@ class Segmenter {
 
   const SegmenterParams& params() const;
 
+  /// Changes the pool used by the following Process calls (null: single-threaded). Results do
+  /// not depend on it. Lets a caller running several Segmenters at once keep them off a shared
+  /// pool while its cores are busy anyway. Not to be called during Process.
+  void SetPool(core::ThreadPool* pool);
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

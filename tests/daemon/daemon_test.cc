@@ -66,9 +66,15 @@ RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSo
                     const std::function<void(Daemon*)>& during = {}) {
   LcmBus bus(c.lcm_url);
   RunResult run;
-  bus.lcm()->subscribe(c.objects_channel, &Received::OnObjects, &run.got);
-  bus.lcm()->subscribe(c.labels_channel, &Received::OnLabels, &run.got);
-  bus.lcm()->subscribe(c.status_channel, &Received::OnStatus, &run.got);
+  bus.Subscribe<clutterseg::objects_t>(c.objects_channel, [&run](const clutterseg::objects_t& m) {
+    run.got.OnObjects(nullptr, {}, &m);
+  });
+  bus.Subscribe<clutterseg::label_image_t>(
+      c.labels_channel,
+      [&run](const clutterseg::label_image_t& m) { run.got.OnLabels(nullptr, {}, &m); });
+  bus.Subscribe<clutterseg::status_t>(c.status_channel, [&run](const clutterseg::status_t& m) {
+    run.got.OnStatus(nullptr, {}, &m);
+  });
   {
     Daemon dut(c, std::move(source), &bus);
     dut.Start();
@@ -79,7 +85,7 @@ RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSo
     run.error = dut.error();
     run.stats = dut.stats();
   }
-  while (bus.lcm()->handleTimeout(0) > 0) {
+  while (bus.Handle(0) > 0) {
   }
   return run;
 }

@@ -6,6 +6,9 @@
 
 #include <atomic>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <thread>
 
 #include <lcm/lcm-cpp.hpp>
@@ -112,6 +115,96 @@ int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout,
   return Wait(&c, timeout, err);
 }
 
+void Drain(Child* child, std::string* err) {
+  char buf[4096];
+  while (child->stderr_fd >= 0) {
+    pollfd pfd{child->stderr_fd, POLLIN, 0};
+    if (poll(&pfd, 1, 0) <= 0) return;
+    const ssize_t n = read(child->stderr_fd, buf, sizeof(buf));
+    if (n <= 0) return;  // end of file: Wait() closes the descriptor
+    err->append(buf, static_cast<size_t>(n));
+  }
+}
+
+bool SignalBlocked(pid_t pid, int sig) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("SigBlk:", 0) == 0) {
+      const unsigned long long mask = std::strtoull(line.c_str() + 7, nullptr, 16);
+      return ((mask >> (sig - 1)) & 1ull) != 0;
+    }
+  }
+  return false;
+}
+
+bool SampleProc(pid_t pid, ProcSample* sample) {
+  const std::filesystem::path dir = "/proc/" + std::to_string(pid);
+  std::ifstream status(dir / "status");
+  if (!status) return false;
+  ProcSample s;
+  std::string line;
+  while (std::getline(status, line)) {
+    if (line.rfind("VmRSS:", 0) == 0) s.rss_kib = std::strtoll(line.c_str() + 6, nullptr, 10);
+  }
+  auto count = [](const std::filesystem::path& d) {
+    std::error_code ec;
+    int n = 0;
+    for (auto it = std::filesystem::directory_iterator(d, ec);
+         !ec && it != std::filesystem::directory_iterator(); it.increment(ec)) {
+      ++n;
+    }
+    return ec ? -1 : n;
+  };
+  s.fds = count(dir / "fd");
+  s.threads = count(dir / "task");
+  if (s.rss_kib < 0 || s.fds < 0 || s.threads < 0) return false;
+  *sample = s;
+  return true;
+}
+
+LcmLogScan ScanLcmLog(const std::string& path) {
+  LcmLogScan scan;
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    scan.problem = "cannot open " + path;
+    return scan;
+  }
+  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                   std::istreambuf_iterator<char>());
+  scan.file_bytes = bytes.size();
+  auto be32 = [&](size_t at) {
+    return (uint32_t{bytes[at]} << 24) | (uint32_t{bytes[at + 1]} << 16) |
+           (uint32_t{bytes[at + 2]} << 8) | uint32_t{bytes[at + 3]};
+  };
+  constexpr size_t kHeader = 4 + 8 + 8 + 4 + 4;
+  size_t pos = 0;
+  while (pos < bytes.size()) {
+    if (bytes.size() - pos < kHeader) {
+      scan.problem = "truncated event header at byte " + std::to_string(pos);
+      return scan;
+    }
+    if (be32(pos) != 0xEDA1DA01u) {
+      scan.problem = "no sync word at byte " + std::to_string(pos);
+      return scan;
+    }
+    const uint64_t channel_len = be32(pos + 20);
+    const uint64_t data_len = be32(pos + 24);
+    const uint64_t end = pos + kHeader + channel_len + data_len;
+    if (end > bytes.size()) {
+      scan.problem = "truncated event at byte " + std::to_string(pos) + " (needs " +
+                     std::to_string(end - pos) + " bytes, " + std::to_string(bytes.size() - pos) +
+                     " left)";
+      return scan;
+    }
+    pos = static_cast<size_t>(end);
+    scan.parsed_bytes = pos;
+    ++scan.events;
+  }
+  scan.complete = true;
+  return scan;
+}
+
 std::vector<LogEvent> ReadLcmLog(const std::string& path) {
   std::vector<LogEvent> events;
   lcm::LogFile log(path, "r");
@@ -163,10 +256,3 @@ std::vector<std::string> NetNamespace::Exec(const std::vector<std::string>& argv
 }
 
 }  // namespace clutterseg::daemon::testutil
-
-#if defined(__SANITIZE_THREAD__)
-// libOpenNI2 (a prebuilt Debian library) unlocks mutexes from other threads during its own
-// initialization; ThreadSanitizer cannot see into it, so its interceptor calls are ignored.
-// Our own code stays fully checked.
-extern "C" const char* __tsan_default_suppressions() { return "called_from_lib:libOpenNI2.so.0\n"; }
-#endif

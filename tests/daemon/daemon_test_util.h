@@ -6,6 +6,7 @@
 #include <signal.h>
 
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,33 @@ Child Spawn(const std::vector<std::string>& argv);
 int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err);
 /// Spawn + Wait.
 int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout, std::string* err);
+/// Appends whatever the running child has written to stderr so far to `*err` without
+/// blocking (long runs must drain the pipe or the child blocks on a full pipe).
+void Drain(Child* child, std::string* err);
+
+/// Resource use of a running process from /proc/<pid>.
+struct ProcSample {
+  int64_t rss_kib{-1};  ///< VmRSS of /proc/<pid>/status
+  int fds{-1};          ///< entries of /proc/<pid>/fd
+  int threads{-1};      ///< entries of /proc/<pid>/task
+};
+/// True when `pid` currently blocks `sig` (SigBlk of /proc/<pid>/status).
+bool SignalBlocked(pid_t pid, int sig);
+
+/// Samples /proc/<pid>; false when the process is gone.
+bool SampleProc(pid_t pid, ProcSample* sample);
+
+/// The structure of an LCM event log file as found on disk, parsed independently of liblcm
+/// (big-endian events: sync 0xEDA1DA01, eventnum, utime, channel length, data length,
+/// channel, data).
+struct LcmLogScan {
+  size_t events{0};
+  uint64_t file_bytes{0};
+  uint64_t parsed_bytes{0};  ///< bytes covered by complete events
+  bool complete{false};      ///< every byte belongs to a complete event
+  std::string problem;       ///< what is wrong when not complete
+};
+LcmLogScan ScanLcmLog(const std::string& path);
 
 /// One event of an LCM log.
 struct LogEvent {

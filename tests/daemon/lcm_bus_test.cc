@@ -4,7 +4,11 @@
 
 #include <chrono>
 #include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
 #include <thread>
+#include <vector>
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -43,9 +47,11 @@ struct Collector {
 TEST(LcmBus, MemqDeliversToSubscribersOfTheSameInstance) {
   LcmBus dut("memq://");
   Collector got;
-  dut.lcm()->subscribe("CLUTTERSEG_OBJECTS", &Collector::Handle, &got);
+  dut.Subscribe<clutterseg::objects_t>(
+      "CLUTTERSEG_OBJECTS",
+      [&got](const clutterseg::objects_t& m) { got.Handle(nullptr, {}, &m); });
   for (int i = 0; i < 5; ++i) EXPECT_TRUE(dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(i, i)));
-  while (dut.lcm()->handleTimeout(0) > 0) {
+  while (dut.Handle(0) > 0) {
   }
   EXPECT_EQ(got.seqs, (std::vector<int64_t>{0, 1, 2, 3, 4}));
   EXPECT_EQ(got.counts, (std::vector<int>{0, 1, 2, 3, 4}));
@@ -55,10 +61,50 @@ TEST(LcmBus, MemqDeliversToSubscribersOfTheSameInstance) {
   // A second memq instance is a different bus.
   LcmBus other("memq://");
   Collector none;
-  other.lcm()->subscribe("CLUTTERSEG_OBJECTS", &Collector::Handle, &none);
+  other.Subscribe<clutterseg::objects_t>(
+      "CLUTTERSEG_OBJECTS",
+      [&none](const clutterseg::objects_t& m) { none.Handle(nullptr, {}, &m); });
   dut.PublishMessage("CLUTTERSEG_OBJECTS", Objects(9, 1));
-  other.lcm()->handleTimeout(10);
+  other.Handle(10);
   EXPECT_TRUE(none.seqs.empty());
+}
+
+// Subscriptions go through LCM's C API (no member-function handlers): the channel name is
+// passed on, undecodable messages are counted, and a handler's exception comes out of Handle()
+// instead of crossing LCM's C callback.
+TEST(LcmBus, SubscribeDecodesCountsBadMessagesAndRethrowsHandlerErrors) {
+  LcmBus dut("memq://");
+  std::vector<std::string> channels;
+  std::vector<int64_t> seqs;
+  dut.Subscribe<clutterseg::objects_t>(
+      "CLUTTERSEG_.*", [&](std::string_view channel, const clutterseg::objects_t& m) {
+        channels.emplace_back(channel);
+        seqs.push_back(m.frame_seq);
+        if (m.frame_seq == 7) throw std::runtime_error("handler failed on frame 7");
+      });
+  std::vector<size_t> raw_sizes;
+  dut.SubscribeRaw("CLUTTERSEG_A", [&](std::string_view, const uint8_t*, size_t size) {
+    raw_sizes.push_back(size);
+  });
+
+  ASSERT_TRUE(dut.PublishMessage("CLUTTERSEG_A", Objects(3, 2)));
+  const uint8_t garbage[5] = {1, 2, 3, 4, 5};
+  ASSERT_TRUE(dut.Publish("CLUTTERSEG_B", garbage, sizeof(garbage)));
+  ASSERT_TRUE(dut.PublishMessage("CLUTTERSEG_B", Objects(7, 1)));
+  ASSERT_TRUE(dut.PublishMessage("OTHER", Objects(8, 1)));
+
+  EXPECT_GT(dut.Handle(0), 0);
+  EXPECT_GT(dut.Handle(0), 0);
+  EXPECT_THROW(dut.Handle(0), std::runtime_error);
+  // "OTHER" matches no subscription; the handler's error was reported once only.
+  EXPECT_NO_THROW({
+    while (dut.Handle(0) > 0) {
+    }
+  });
+  EXPECT_EQ(channels, (std::vector<std::string>{"CLUTTERSEG_A", "CLUTTERSEG_B"}));
+  EXPECT_EQ(seqs, (std::vector<int64_t>{3, 7}));
+  EXPECT_EQ(raw_sizes.size(), 1u);
+  EXPECT_EQ(dut.decode_failures(), 1u);
 }
 
 TEST(LcmBus, FileLogIsReadBackWithLogFile) {

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <thread>
 
@@ -50,19 +51,22 @@ struct Counter {
 };
 
 int Subscribe(const std::string& url, const std::string& channel, int n, const std::string& ready) {
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "subscriber: LCM not good\n");
+  std::unique_ptr<clutterseg::daemon::LcmBus> bus;
+  try {
+    bus = std::make_unique<clutterseg::daemon::LcmBus>(url);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "subscriber: LCM not good: %s\n", e.what());
     return 4;
   }
   Counter counter;
-  lcm.subscribe(channel, &Counter::Handle, &counter);
+  bus->Subscribe<clutterseg::objects_t>(
+      channel, [&counter](const clutterseg::objects_t& m) { counter.Handle(nullptr, {}, &m); });
   // The udpm self-test runs on the first handle: do one before declaring readiness.
-  lcm.handleTimeout(10);
+  bus->Handle(10);
   std::ofstream(ready) << "ready\n";
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
   while (counter.received < n && std::chrono::steady_clock::now() < deadline) {
-    lcm.handleTimeout(100);
+    bus->Handle(100);
   }
   std::fprintf(stderr, "received %d in_order %d\n", counter.received, counter.in_order ? 1 : 0);
   return counter.received == n && counter.in_order ? 0 : 1;

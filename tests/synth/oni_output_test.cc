@@ -131,12 +131,3 @@ TEST(SynthOni, RecordingWithoutGroundTruthAndErrors) {
 
 }  // namespace
 }  // namespace clutterseg::synth
-
-#if defined(__SANITIZE_THREAD__)
-// libOpenNI2 and its file driver libOniFile (prebuilt Debian libraries) unlock mutexes from
-// other threads and take locks in varying order; ThreadSanitizer cannot see into them. The
-// driver is dlclose()d at exit, which called_from_lib does not allow, hence mutex/deadlock.
-extern "C" const char* __tsan_default_suppressions() {
-  return "called_from_lib:libOpenNI2.so.0\nmutex:libOniFile.so.0\ndeadlock:libOniFile.so.0\n";
-}
-#endif

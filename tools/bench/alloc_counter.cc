@@ -1,6 +1,23 @@
 // Replacement allocation functions that count calls and forward to glibc's allocator.
 #include "tools/bench/alloc_counter.h"
 
+#if !CLUTTERSEG_ALLOC_COUNTER_ENABLED
+// Sanitizer build: the sanitizer runtime replaces malloc/free itself, and forwarding to
+// glibc's __libc_* functions behind its back crashes. Nothing is replaced or counted.
+namespace clutterseg::bench {
+
+void TraceNextAllocations(int /*max_traces*/) {}
+
+AllocCounts CurrentAllocCounts() { return AllocCounts{}; }
+
+AllocCounts operator-(const AllocCounts& after, const AllocCounts& before) {
+  return AllocCounts{after.news - before.news, after.mallocs - before.mallocs,
+                     after.bytes - before.bytes};
+}
+
+}  // namespace clutterseg::bench
+#else
+
 #include <execinfo.h>
 #include <unistd.h>
 
@@ -183,3 +200,5 @@ void operator delete(void* p, std::align_val_t, const std::nothrow_t&) noexcept 
 void operator delete[](void* p, std::align_val_t, const std::nothrow_t&) noexcept {
   __libc_free(p);
 }
+
+#endif  // CLUTTERSEG_ALLOC_COUNTER_ENABLED

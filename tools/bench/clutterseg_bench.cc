@@ -541,10 +541,17 @@ int Run(int argc, char** argv) {
   for (size_t i = 0; i < results.size(); ++i) {
     const ConfigResult& r = results[i];
     const double nf = static_cast<double>(r.frames);
-    std::printf("  %-34s %7.1f %9.2f %9.2f %9.2f %9.2f %9.2f %9.1f %9.1f\n", r.config.name.c_str(),
-                r.fps, r.cpu_ms_per_frame, r.latency.mean, r.latency.p99,
-                static_cast<double>(r.allocs.news) / nf, static_cast<double>(r.allocs.mallocs) / nf,
-                static_cast<double>(r.allocs.bytes) / nf / 1024.0, r.peak_rss_mb - r.rss_before_mb);
+    if (AllocCountingAvailable()) {
+      std::printf(
+          "  %-34s %7.1f %9.2f %9.2f %9.2f %9.2f %9.2f %9.1f %9.1f\n", r.config.name.c_str(), r.fps,
+          r.cpu_ms_per_frame, r.latency.mean, r.latency.p99,
+          static_cast<double>(r.allocs.news) / nf, static_cast<double>(r.allocs.mallocs) / nf,
+          static_cast<double>(r.allocs.bytes) / nf / 1024.0, r.peak_rss_mb - r.rss_before_mb);
+    } else {  // a sanitizer build: its allocator cannot be counted
+      std::printf("  %-34s %7.1f %9.2f %9.2f %9.2f %9s %9s %9s %9.1f\n", r.config.name.c_str(),
+                  r.fps, r.cpu_ms_per_frame, r.latency.mean, r.latency.p99, "n/a", "n/a", "n/a",
+                  r.peak_rss_mb - r.rss_before_mb);
+    }
     if (r.fps > results[best].fps) best = i;
   }
   std::printf(
@@ -621,9 +628,12 @@ int Run(int argc, char** argv) {
     w.Field("shared_pool", r.config.shared_pool).Field("pool_threads", r.config.pool_threads);
     w.Field("fps", r.fps).Field("cpu_ms_per_frame", r.cpu_ms_per_frame);
     w.Field("cpu_bound_fps", 1000.0 * threads / r.cpu_ms_per_frame);
-    w.Field("news_per_frame", static_cast<double>(r.allocs.news) / nf);
-    w.Field("mallocs_per_frame", static_cast<double>(r.allocs.mallocs) / nf);
-    w.Field("alloc_bytes_per_frame", static_cast<double>(r.allocs.bytes) / nf);
+    w.Field("alloc_counting_available", AllocCountingAvailable());
+    if (AllocCountingAvailable()) {
+      w.Field("news_per_frame", static_cast<double>(r.allocs.news) / nf);
+      w.Field("mallocs_per_frame", static_cast<double>(r.allocs.mallocs) / nf);
+      w.Field("alloc_bytes_per_frame", static_cast<double>(r.allocs.bytes) / nf);
+    }
     w.Field("rss_before_mb", r.rss_before_mb).Field("peak_rss_mb", r.peak_rss_mb);
     w.Field("peak_rss_above_before_mb", r.peak_rss_mb - r.rss_before_mb);
     WriteSummary(&w, "latency_ms", r.latency);
