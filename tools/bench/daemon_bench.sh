@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # Measures the daemon end to end on .oni recordings: replay throughput at --speed max (frames
-# looped until N are published), capture-to-publish latency when fed at the recorded 30 Hz,
-# frames dropped, and peak RSS. Prints one Markdown table row per recording and mode.
+# looped until N are published), capture-to-publish latency when fed at the recorded 30 Hz
+# (RT_FRAMES frames, looped), frames dropped, and peak RSS. Latency percentiles are over the
+# frames after the first WARMUP (default 5), whose work buffers are still growing. FPS counts
+# every published frame over the whole run, start-up included. Prints one Markdown table row
+# per recording and mode.
 # Usage: tools/bench/daemon_bench.sh [BUILD_DIR] [FRAMES] RECORDING.oni...
 #   BUILD_DIR defaults to build/release, FRAMES (published at speed max) to 600.
 # Make recordings with: clutterseg-synth --oni out.oni --count 90 --seed 101
@@ -10,6 +13,8 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 build=${1:-build/release}
 frames=${2:-600}
+rt_frames=${RT_FRAMES:-300}  # frames published at the recorded 30 Hz
+warmup=${WARMUP:-5}          # first frames left out of the percentiles (buffers growing)
 shift 2 || true
 daemon=$build/src/daemon/clutterseg
 listen=$build/tools/clutterseg-listen
@@ -25,16 +30,16 @@ for oni in "$@"; do
     if [ "$mode" = max ]; then
       args=(--speed max --loop --max-frames "$frames")
     else
-      args=(--speed realtime)
+      args=(--speed realtime --loop --max-frames "$rt_frames")
     fi
     start=$(date +%s.%N)
     /usr/bin/time -f "%M" -o "$tmp/rss" "$daemon" --source "$oni" "${args[@]}" \
       --lcm-url "file://$log?mode=w" --log-level warn > /dev/null 2>&1
     end=$(date +%s.%N)
     "$listen" --lcm-url "file://$log?speed=0" > "$tmp/listen.txt" 2>&1 || true
-    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" <<'PY'
+    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" "$warmup" <<'PY'
 import re, sys
-name, mode, start, end, rss_kb, listen = sys.argv[1:]
+name, mode, start, end, rss_kb, listen, warmup = sys.argv[1:]
 seg, c2p, dropped = [], [], "?"
 for line in open(listen):
     m = re.search(r"^CLUTTERSEG_OBJECTS .*segment ([\d.]+) ms, capture->publish ([\d.]+) ms", line)
@@ -48,8 +53,10 @@ def pct(v, q):  # nearest rank
     v = sorted(v)
     return v[max(0, min(len(v) - 1, int(-(-q * len(v) // 100)) - 1))] if v else float("nan")
 wall = float(end) - float(start)
+n = len(seg)
+seg, c2p = seg[int(warmup):], c2p[int(warmup):]
 print("| %s | %s | %d | %.1f | %.1f / %.1f | %.1f / %.1f | %s | %.0f |" % (
-    name, "speed max" if mode == "max" else "30 Hz", len(seg), len(seg) / wall,
+    name, "speed max" if mode == "max" else "30 Hz", n, n / wall,
     pct(seg, 50), pct(seg, 99), pct(c2p, 50), pct(c2p, 99), dropped, int(rss_kb) / 1024))
 PY
   done
