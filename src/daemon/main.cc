@@ -106,15 +106,22 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
   }
 }
 
-int Run(int argc, char** argv) {
-  // Signals are taken through a signalfd: block them before any thread exists so that every
-  // thread inherits the mask.
+// Blocks SIGINT, SIGTERM and SIGHUP in the calling thread (threads created later inherit the
+// mask) and returns that set, for the signalfd.
+sigset_t BlockDaemonSignals() {
   sigset_t mask;
   sigemptyset(&mask);
   sigaddset(&mask, SIGINT);
   sigaddset(&mask, SIGTERM);
   sigaddset(&mask, SIGHUP);
   pthread_sigmask(SIG_BLOCK, &mask, nullptr);
+  return mask;
+}
+
+int Run(int argc, char** argv) {
+  // Signals are taken through a signalfd: block them before any thread exists so that every
+  // thread inherits the mask.
+  const sigset_t mask = BlockDaemonSignals();
   signal(SIGPIPE, SIG_IGN);
   const int signal_fd = signalfd(-1, &mask, SFD_CLOEXEC);
   if (signal_fd < 0) {
@@ -237,14 +244,7 @@ int Run(int argc, char** argv) {
 // Blocks the stop and reload signals before main() (after the shared libraries are loaded and
 // initialised), so that a signal sent right after start-up is taken by the signalfd in Run()
 // and ends the daemon in order instead of killing it with the default action.
-__attribute__((constructor)) void BlockSignalsEarly() {
-  sigset_t mask;
-  sigemptyset(&mask);
-  sigaddset(&mask, SIGINT);
-  sigaddset(&mask, SIGTERM);
-  sigaddset(&mask, SIGHUP);
-  pthread_sigmask(SIG_BLOCK, &mask, nullptr);
-}
+__attribute__((constructor)) void BlockSignalsEarly() { BlockDaemonSignals(); }
 
 }  // namespace
 }  // namespace clutterseg::daemon
