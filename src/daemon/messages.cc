@@ -10,6 +10,14 @@
 #include "clutterseg/objects_t.hpp"
 
 namespace clutterseg::daemon {
+
+namespace {
+// The supervoxelizer's own steps (seeding, growth, statistics): StageTimes::supervoxels_ms
+// also covers voxelization and normals, which are reported separately.
+double SupervoxelsOnlyMs(const pipeline::StageTimes& t) {
+  return std::max(0.0, t.supervoxels_ms - t.voxelize_ms - t.normals_ms);
+}
+}  // namespace
 namespace {
 
 void Copy3(const core::Vec3f& v, float* out) {
@@ -108,7 +116,7 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
   msg->times.points_ms = static_cast<float>(t.points_ms);
   msg->times.voxelize_ms = static_cast<float>(t.voxelize_ms);
   msg->times.normals_ms = static_cast<float>(t.normals_ms);
-  msg->times.supervoxels_ms = static_cast<float>(t.supervoxels_ms);
+  msg->times.supervoxels_ms = static_cast<float>(SupervoxelsOnlyMs(t));
   msg->times.features_ms = static_cast<float>(t.features_ms);
   msg->times.linkage_ms = static_cast<float>(t.linkage_ms);
   msg->times.planes_ms = static_cast<float>(t.planes_ms);
@@ -220,7 +228,7 @@ const std::array<std::string, kNumStages>& StageNames() {
 }
 
 std::array<double, kNumStages> StageValues(const pipeline::StageTimes& t) {
-  return {t.points_ms,  t.voxelize_ms, t.normals_ms,   t.supervoxels_ms, t.features_ms,
+  return {t.points_ms,  t.voxelize_ms, t.normals_ms,   SupervoxelsOnlyMs(t), t.features_ms,
           t.linkage_ms, t.planes_ms,   t.expansion_ms, t.objects_ms};
 }
 
