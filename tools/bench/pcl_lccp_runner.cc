@@ -7,10 +7,11 @@
 #include <memory>
 #include <stdexcept>
 #include <unordered_set>
+#include <vector>
 
 #include <pcl/point_types.h>
-#include <pcl/segmentation/lccp_segmentation.h>
-#include <pcl/segmentation/supervoxel_clustering.h>
+
+#include "tools/pcl_baseline/lccp.h"
 
 namespace clutterseg::bench {
 namespace {
@@ -28,6 +29,7 @@ double MsSince(Clock::time_point start) {
 struct PclLccpRunner::Impl {
   pcl_baseline::BaselineParams params;
   CloudT::Ptr cloud;
+  std::vector<std::uint32_t> labels;
 };
 
 PclLccpRunner::PclLccpRunner(const pcl_baseline::BaselineParams& params)
@@ -60,48 +62,18 @@ PclLccpTimes PclLccpRunner::Run() {
   const pcl_baseline::BaselineParams& p = impl_->params;
   const CloudT::Ptr& cloud = impl_->cloud;
   PclLccpTimes times;
+  pcl_baseline::FrameReport report;
   const Clock::time_point t0 = Clock::now();
-  pcl::SupervoxelClustering<PointT> super(p.voxel_resolution_m, p.seed_resolution_m);
-  super.setUseSingleCameraTransform(p.use_single_camera_transform);
-  super.setInputCloud(cloud);
-  super.setColorImportance(p.color_importance);
-  super.setSpatialImportance(p.spatial_importance);
-  super.setNormalImportance(p.normal_importance);
-  std::map<std::uint32_t, pcl::Supervoxel<PointT>::Ptr> clusters;
-  super.extract(clusters);
-  std::multimap<std::uint32_t, std::uint32_t> adjacency;
-  super.getSupervoxelAdjacency(adjacency);
-  times.supervoxels_ms = MsSince(t0);
-  times.num_supervoxels = clusters.size();
-
-  const Clock::time_point t1 = Clock::now();
-  if (!clusters.empty()) {
-    pcl::LCCPSegmentation<PointT> lccp;
-    lccp.setConcavityToleranceThreshold(p.concavity_tolerance_deg);
-    lccp.setSanityCheck(p.use_sanity_criterion);
-    lccp.setSmoothnessCheck(true, p.voxel_resolution_m, p.seed_resolution_m,
-                            p.smoothness_threshold);
-    lccp.setKFactor(p.use_extended_convexity ? 1 : 0);
-    lccp.setInputSupervoxels(clusters, adjacency);
-    lccp.setMinSegmentSize(p.min_segment_supervoxels);
-    lccp.segment();
-    pcl::PointCloud<pcl::PointXYZL>::Ptr labelled = super.getLabeledCloud();
-    lccp.relabelCloud(*labelled);
-    if (labelled->size() != cloud->size()) {
-      throw std::logic_error("PCL labelled cloud size differs from the input");
-    }
-    std::unordered_set<std::uint32_t> segments;
-    for (size_t i = 0; i < cloud->size(); ++i) {
-      const PointT& q = (*cloud)[i];
-      if (std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z) &&
-          (*labelled)[i].label != 0) {
-        segments.insert((*labelled)[i].label);
-      }
-    }
-    times.num_segments = segments.size();
-  }
-  times.lccp_ms = MsSince(t1);
+  pcl_baseline::internal::RunLccp(cloud, p, &impl_->labels, &report);
   times.total_ms = MsSince(t0);
+  times.supervoxels_ms = report.stage1_ms;
+  times.lccp_ms = report.stage2_ms;
+  times.num_supervoxels = report.intermediate_count;
+  std::unordered_set<std::uint32_t> segments;
+  for (std::uint32_t l : impl_->labels) {
+    if (l != 0) segments.insert(l);
+  }
+  times.num_segments = segments.size();
   return times;
 }
 

@@ -25,6 +25,8 @@
 #include <pcl/segmentation/organized_multi_plane_segmentation.h>
 #include <pcl/segmentation/supervoxel_clustering.h>
 
+#include "tools/pcl_baseline/lccp.h"
+
 namespace clutterseg::pcl_baseline {
 namespace internal {
 namespace {
@@ -102,6 +104,8 @@ std::size_t CompactLabels(std::vector<std::uint32_t>* labels) {
   return remap.size();
 }
 
+}  // namespace
+
 // Supervoxels + LCCP. Labels are mapped to the original points through the voxel each
 // point falls in (SupervoxelClustering::getLabeledCloud looks up the octree leaf of every
 // input point, with the same transform as the voxelization); points whose voxel no
@@ -145,6 +149,8 @@ void RunLccp(const CloudT::ConstPtr& cloud, const BaselineParams& p,
   }
   report->stage2_ms = MsSince(t1);
 }
+
+namespace {
 
 // Organized multi-plane segmentation + Euclidean clusters (PCL's organized segmentation
 // demo): planes with more than plane_min_inliers points become label 0, the remaining
