@@ -159,37 +159,6 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     int32_t* point_voxel = grid->point_voxel.data();
     VoxelCoord c;
     LogCache log_cache;
-    // Consecutive points of a run in one voxel are summed in registers and flushed when the
-    // voxel changes: adding each point into the voxel's memory made every point wait for the
-    // previous store (a load-add-store chain per point).
-    int32_t run_vox = -1;
-    uint32_t run_count = 0;
-    double r0 = 0, r1 = 0, r2 = 0, r3 = 0, r4 = 0, r5 = 0, r6 = 0, r7 = 0, r8 = 0;
-    float cr = 0.f, cg = 0.f, cb = 0.f;
-    auto flush = [&] {
-      if (run_vox < 0) return;
-      const size_t v = static_cast<size_t>(run_vox);
-      double* sv = &band.sums[9 * v];
-      sv[0] += r0;
-      sv[1] += r1;
-      sv[2] += r2;
-      sv[3] += r3;
-      sv[4] += r4;
-      sv[5] += r5;
-      sv[6] += r6;
-      sv[7] += r7;
-      sv[8] += r8;
-      band.count[v] += run_count;
-      if (with_color) {
-        core::Vec3f& m = band.color[v];
-        m.x += cr;
-        m.y += cg;
-        m.z += cb;
-      }
-      r0 = r1 = r2 = r3 = r4 = r5 = r6 = r7 = r8 = 0.0;
-      cr = cg = cb = 0.f;
-      run_count = 0;
-    };
     for (size_t i = begin; i < end; ++i) {
       const core::Vec3f& p = xyz[i];
       if (!QuantizePoint(p, camera, inv_res, max_depth, &log_cache, &c)) {
@@ -224,29 +193,27 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
         }
       }
       point_voxel[i] = vox;
-      if (vox != run_vox) {
-        flush();
-        run_vox = vox;
-      }
+      const size_t v = static_cast<size_t>(vox);
       const double x = p.x, y = p.y, z = p.z;
-      r0 += x;
-      r1 += y;
-      r2 += z;
-      r3 += x * x;
-      r4 += x * y;
-      r5 += x * z;
-      r6 += y * y;
-      r7 += y * z;
-      r8 += z * z;
-      ++run_count;
+      double* s = &band.sums[9 * v];
+      s[0] += x;
+      s[1] += y;
+      s[2] += z;
+      s[3] += x * x;
+      s[4] += x * y;
+      s[5] += x * z;
+      s[6] += y * y;
+      s[7] += y * z;
+      s[8] += z * z;
+      ++band.count[v];
       if (with_color) {
         const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
-        cr += rgb.r;
-        cg += rgb.g;
-        cb += rgb.b;
+        core::Vec3f& m = band.color[v];
+        m.x += rgb.r;
+        m.y += rgb.g;
+        m.z += rgb.b;
       }
     }
-    flush();
     band.size = count;
   });
 
