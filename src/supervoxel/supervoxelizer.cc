@@ -192,29 +192,39 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   }
   const float radius = 0.5f * params_.seed_resolution_m;
   const float radius2 = radius * radius;
+  // The search stops as soon as the count is reached: only keep / drop is needed, and most
+  // candidates lie on surfaces that reach it within a quarter of the disc.
   ForChunks(pool, num_candidates, grain, [&](size_t b, size_t e) {
     std::vector<uint8_t>& marks = chunk_marks_[b / grain];
     std::vector<uint32_t>& queue = chunk_queue_[b / grain];
     for (size_t k = b; k < e; ++k) {
       const uint32_t seed = candidates_[k];
       const core::Vec3f& c = grid_.centroid[seed];
+      const float voxel = voxelizer_.VoxelSizeAt(c.z);
+      const float disc = kPi * radius2 / (voxel * voxel);
+      const double needed = std::ceil(static_cast<double>(params_.min_seed_occupancy * disc));
+      const size_t target = needed <= 1.0 ? 1 : static_cast<size_t>(std::min(needed, 1e9));
       queue.clear();
       queue.push_back(seed);
       marks[seed] = 1;
-      for (size_t q = 0; q < queue.size(); ++q) {
+      for (size_t q = 0; q < queue.size() && queue.size() < target; ++q) {
         const uint32_t v = queue[q];
-        for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        // Branch-free, as in Grow: each neighbour is written, and kept when it joins.
+        const uint32_t a_begin = grid_.adjacency_offsets[v], a_end = grid_.adjacency_offsets[v + 1];
+        size_t size = queue.size();
+        queue.resize(size + (a_end - a_begin));
+        uint32_t* out = queue.data();
+        for (uint32_t a = a_begin; a < a_end; ++a) {
           const uint32_t n = grid_.adjacency[a];
-          if (marks[n] || Dist2(grid_.centroid[n], c) > radius2) continue;
-          marks[n] = 1;
-          queue.push_back(n);
+          const uint8_t join = (marks[n] == 0) & (Dist2(grid_.centroid[n], c) <= radius2);
+          marks[n] |= join;
+          out[size] = n;
+          size += join;
         }
+        queue.resize(size);
       }
       for (uint32_t v : queue) marks[v] = 0;
-      const float voxel = voxelizer_.VoxelSizeAt(c.z);
-      const float disc = kPi * radius2 / (voxel * voxel);
-      candidate_keep_[k] =
-          static_cast<float>(queue.size()) >= params_.min_seed_occupancy * disc ? 1 : 0;
+      candidate_keep_[k] = queue.size() >= target ? 1 : 0;
     }
   });
 
@@ -244,10 +254,13 @@ void Supervoxelizer::Grow(int max_layers) {
   const size_t num_voxels = grid_.size();
   claim_.assign(num_voxels, Claim{-1, kInf});
   Claim* claim = claim_.data();
-  frontier_.clear();
+  // The frontiers are used up to their counts only, so that they never shrink and the
+  // branch-free loop below may write past the last entry it keeps.
+  size_t frontier_size = seed_.size();
+  if (grow_frontier_.size() < frontier_size) grow_frontier_.resize(frontier_size);
   for (size_t s = 0; s < seed_.size(); ++s) {
     claim[seed_[s]] = Claim{static_cast<int32_t>(s), 0.f};
-    frontier_.emplace_back(static_cast<uint32_t>(s), seed_[s]);
+    grow_frontier_[s] = {static_cast<uint32_t>(s), seed_[s]};
   }
   // One layer at a time, all supervoxels in turn (the frontier stays grouped by supervoxel in
   // ascending order). A voxel goes to whoever reaches it most cheaply; a supervoxel that loses
@@ -259,32 +272,50 @@ void Supervoxelizer::Grow(int max_layers) {
   const float wn = params_.normal_importance;
   // A local copy: the member would be reloaded after every frontier push.
   const bool use_color = use_color_;
-  for (int layer = 0; layer < max_layers && !frontier_.empty(); ++layer) {
-    next_frontier_.clear();
-    for (const auto& [s, v] : frontier_) {
+  for (int layer = 0; layer < max_layers && frontier_size > 0; ++layer) {
+    size_t next_size = 0;
+    for (size_t f = 0; f < frontier_size; ++f) {
+      const auto [s, v] = grow_frontier_[f];
       const int32_t label = static_cast<int32_t>(s);
       if (claim[v].owner != label) continue;
+      const uint32_t begin = offsets[v], end = offsets[v + 1];
+      if (grow_next_.size() < next_size + (end - begin)) {
+        grow_next_.resize(std::max(2 * grow_next_.size(), next_size + (end - begin)));
+      }
+      std::pair<uint32_t, uint32_t>* next = grow_next_.data();
+      if (use_color) {
+        for (uint32_t a = begin; a < end; ++a) {
+          const uint32_t n = adjacency[a];
+          Claim& cl = claim[n];
+          if (cl.owner == label) continue;
+          const float c = Cost(s, n);
+          if (cl.cost <= c) continue;
+          cl = Claim{label, c};
+          next[next_size++] = {s, n};
+        }
+        continue;
+      }
+      // Without colour the loop is branch-free: which neighbours a supervoxel takes is data
+      // dependent and mispredicts. A voxel the supervoxel already holds has exactly the cost
+      // recomputed here (same centre, same voxel; 0 for the seed, which no cost undercuts), so
+      // "strictly cheaper" alone also skips the supervoxel's own voxels.
       const core::Vec3f cx = centre_xyz_[s];
       const core::Vec3f cn = centre_normal_[s];
-      for (uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
+      for (uint32_t a = begin; a < end; ++a) {
         const uint32_t n = adjacency[a];
-        Claim& cl = claim[n];
-        if (cl.owner == label) continue;
-        float c;
-        if (use_color) {
-          c = Cost(s, n);
-        } else {
-          const VoxelFeature& f = feature[n];
-          const float dn = 1.f - std::fabs(Dot(f.normal, cn));
-          c = ws * Dist2(f.centroid, cx) + wn * dn * dn;
-        }
+        const Claim cl = claim[n];
+        const VoxelFeature& fe = feature[n];
+        const float dn = 1.f - std::fabs(Dot(fe.normal, cn));
+        const float c = ws * Dist2(fe.centroid, cx) + wn * dn * dn;
         // Unclaimed voxels cost infinity, so one comparison covers both cases.
-        if (cl.cost <= c) continue;
-        cl = Claim{label, c};
-        next_frontier_.emplace_back(s, n);
+        const bool take = c < cl.cost;
+        claim[n] = take ? Claim{label, c} : cl;
+        next[next_size] = {s, n};
+        next_size += take ? 1 : 0;
       }
     }
-    frontier_.swap(next_frontier_);
+    grow_frontier_.swap(grow_next_);
+    frontier_size = next_size;
   }
   owner_.resize(num_voxels);
   for (size_t v = 0; v < num_voxels; ++v) owner_[v] = claim[v].owner;
@@ -349,20 +380,29 @@ void Supervoxelizer::Recenter() {
 void Supervoxelizer::EnforceConnectivity() {
   // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
   // seed and release the rest.
+  // Branch-free breadth-first search: every neighbour is written to the queue, which keeps it
+  // only when it joins (the queue holds at most all voxels plus one neighbourhood).
   const size_t num_voxels = grid_.size();
   mark_.assign(num_voxels, 0);
+  if (component_.size() < num_voxels + 27) component_.resize(num_voxels + 27);
+  uint32_t* queue = component_.data();
+  uint8_t* mark = mark_.data();
+  const int32_t* owner = owner_.data();
+  const uint32_t* offsets = grid_.adjacency_offsets.data();
+  const uint32_t* adjacency = grid_.adjacency.data();
   for (size_t s = 0; s < seed_.size(); ++s) {
     const int32_t label = static_cast<int32_t>(s);
-    queue_.clear();
-    queue_.push_back(seed_[s]);
-    mark_[seed_[s]] = 1;
-    for (size_t q = 0; q < queue_.size(); ++q) {
-      const uint32_t v = queue_[q];
-      for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
-        const uint32_t n = grid_.adjacency[a];
-        if (mark_[n] || owner_[n] != label) continue;
-        mark_[n] = 1;
-        queue_.push_back(n);
+    size_t size = 1;
+    queue[0] = seed_[s];
+    mark[seed_[s]] = 1;
+    for (size_t q = 0; q < size; ++q) {
+      const uint32_t v = queue[q];
+      for (uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
+        const uint32_t n = adjacency[a];
+        const uint8_t join = (mark[n] == 0) & (owner[n] == label);
+        mark[n] |= join;
+        queue[size] = n;
+        size += join;
       }
     }
   }
@@ -491,12 +531,22 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
         const double* ps = &grid_.point_sums[9 * static_cast<size_t>(v)];
         acc[0] += grid_.num_points[v];
         for (int k = 0; k < 9; ++k) acc[1 + k] += ps[k];
-        for (uint32_t a = grid_.adjacency_offsets[v]; a < grid_.adjacency_offsets[v + 1]; ++a) {
+        // Branch-free: every neighbour's supervoxel is written after the list's end and kept
+        // only when new (last_seen[s] is set too, which no other supervoxel's test reads as a
+        // match).
+        const uint32_t a_begin = grid_.adjacency_offsets[v], a_end = grid_.adjacency_offsets[v + 1];
+        size_t size = list.size();
+        list.resize(size + (a_end - a_begin));
+        uint32_t* dst = list.data();
+        const uint32_t mark = static_cast<uint32_t>(s + 1);
+        for (uint32_t a = a_begin; a < a_end; ++a) {
           const uint32_t t = static_cast<uint32_t>(owner_[grid_.adjacency[a]]);
-          if (t == s || last_seen[t] == s + 1) continue;
-          last_seen[t] = static_cast<uint32_t>(s + 1);
-          list.push_back(t);
+          const bool keep = (t != s) & (last_seen[t] != mark);
+          last_seen[t] = mark;
+          dst[size] = t;
+          size += keep ? 1 : 0;
         }
+        list.resize(size);
       }
       std::sort(list.begin() + static_cast<std::ptrdiff_t>(list_begin), list.end());
       nbr_count_[s] = static_cast<uint32_t>(list.size() - list_begin);

@@ -120,10 +120,14 @@ class Supervoxelizer {
   std::vector<int32_t> owner_;
   std::vector<std::pair<uint32_t, uint32_t>> frontier_;
   std::vector<std::pair<uint32_t, uint32_t>> next_frontier_;
+  // Grow's frontiers, used up to a count (they never shrink).
+  std::vector<std::pair<uint32_t, uint32_t>> grow_frontier_;
+  std::vector<std::pair<uint32_t, uint32_t>> grow_next_;
   std::vector<double> accum_;
   std::vector<float> best_dist_;
   std::vector<uint32_t> queue_;
   std::vector<uint8_t> mark_;
+  std::vector<uint32_t> component_;  // EnforceConnectivity's queue, used up to a count
   std::vector<int32_t> pending_;
 
   // Output: voxels grouped by supervoxel, neighbour lists per chunk of supervoxels.
