@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <numeric>
 
 #include "graph/linkage.h"
@@ -76,15 +78,19 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   m.work.xyz.resize(cloud.xyz.size());
   const float zmin = m.params.objects.min_depth_m;
   const float zmax = m.params.objects.max_depth_m;
+  // Branch-free (valid and invalid points interleave along object edges): a coordinate is
+  // finite exactly when its magnitude is below infinity.
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const core::Vec3f invalid{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+  const core::Vec3f* src = cloud.xyz.data();
+  core::Vec3f* dst = m.work.xyz.data();
   uint32_t num_valid = 0;
   for (size_t i = 0; i < cloud.xyz.size(); ++i) {
-    const core::Vec3f& p = cloud.xyz[i];
-    if (core::IsValid(p) && p.z >= zmin && p.z <= zmax) {
-      m.work.xyz[i] = p;
-      ++num_valid;
-    } else {
-      m.work.xyz[i] = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
-    }
+    const core::Vec3f p = src[i];
+    const bool ok = (std::fabs(p.x) < kInf) & (std::fabs(p.y) < kInf) & (std::fabs(p.z) < kInf) &
+                    (p.z >= zmin) & (p.z <= zmax);
+    dst[i] = ok ? p : invalid;
+    num_valid += ok ? 1u : 0u;
   }
   if (m.params.supervoxel.color_importance > 0.f && cloud.has_color()) {
     m.work.rgba = cloud.rgba;
