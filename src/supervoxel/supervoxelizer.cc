@@ -316,6 +316,9 @@ void Supervoxelizer::Grow(int max_layers) {
     }
     grow_frontier_.swap(grow_next_);
     frontier_size = next_size;
+    // Both buffers keep the larger size, so that which one a layer writes never matters for
+    // allocation (none once the largest frame has been seen).
+    if (grow_next_.size() < grow_frontier_.size()) grow_next_.resize(grow_frontier_.size());
   }
   owner_.resize(num_voxels);
   for (size_t v = 0; v < num_voxels; ++v) owner_[v] = claim[v].owner;
@@ -460,6 +463,10 @@ void Supervoxelizer::AssignLeftovers() {
       }
     }
     frontier_.swap(next_frontier_);
+    // Both buffers keep the larger capacity (see Grow).
+    if (next_frontier_.capacity() < frontier_.capacity()) {
+      next_frontier_.reserve(frontier_.capacity());
+    }
   }
   // Components no seed reached become supervoxels of their own.
   for (size_t v0 = 0; v0 < num_voxels; ++v0) {
