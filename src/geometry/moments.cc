@@ -10,7 +10,11 @@ void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]
   // Smallest root of the characteristic polynomial f(l) = det(A - l I) by Newton's method
   // from l = 0: A is positive semi-definite, so 0 <= l3 and f is decreasing and convex left of
   // l3; the iterates rise monotonically to it. Nearly flat patches (l3 << l2) converge in
-  // two or three steps. Work on A / trace, whose eigenvalues lie in [0, 1].
+  // two or three steps. Work on A / trace, whose eigenvalues lie in [0, 1]. Convergence is
+  // quadratic, so after a step below 1e-6 l the error is near 1e-12 l: stopping there instead
+  // of waiting for a step at rounding level saves one iteration of about five (segmentations
+  // of the mOSD and synthetic test frames unchanged). At a repeated root, where convergence
+  // is linear, either eigenvector of the pair is valid.
   const double trace = a00 + a11 + a22;
   double l1 = 0.0, l2 = 0.0, l3 = 0.0;
   if (trace > 0.0) {
@@ -28,7 +32,7 @@ void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]
       if (!(df < 0.0)) break;  // at a repeated root (or rounding past it)
       const double step = f / df;
       l -= step;
-      if (!(std::fabs(step) > 1e-15 * (l + 1e-12))) break;
+      if (!(std::fabs(step) > 1e-6 * (l + 1e-12))) break;
     }
     l = std::clamp(l, 0.0, 1.0 / 3.0);
     // The other two: l1 + l2 = 1 - l3 and l1 l2 = m2 - l3 (l1 + l2).
