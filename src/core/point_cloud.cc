@@ -3,6 +3,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/thread_pool.h"
+
 namespace clutterseg::core {
 
 size_t PointCloud::CountValid() const {
@@ -45,7 +47,7 @@ std::string CameraIntrinsics::ToString() const {
 }
 
 void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k, const ColorImage* color,
-                       PointCloud* cloud, float min_m, float max_m) {
+                       PointCloud* cloud, float min_m, float max_m, ThreadPool* pool) {
   const int w = depth.width;
   const int h = depth.height;
   cloud->width = w;
@@ -62,20 +64,31 @@ void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k, const
   const float ify = static_cast<float>(1.0 / k.fy);
   const float cx = static_cast<float>(k.cx);
   const float cy = static_cast<float>(k.cy);
-  for (int v = 0; v < h; ++v) {
-    const size_t row = static_cast<size_t>(v) * w;
-    const float yf = (static_cast<float>(v) - cy) * ify;
-    for (int u = 0; u < w; ++u) {
-      const size_t i = row + u;
-      const float z = depth.data[i] * 0.001f;
-      Vec3f& p = cloud->xyz[i];
-      if (depth.data[i] == 0 || z < min_m || z > max_m) {
-        p = Vec3f{kInvalidDepth, kInvalidDepth, kInvalidDepth};
-      } else {
-        p = Vec3f{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
+  const Vec3f invalid{kInvalidDepth, kInvalidDepth, kInvalidDepth};
+  // Branch-free per pixel: valid and invalid depths interleave along object edges.
+  auto rows = [&](size_t v_begin, size_t v_end) {
+    for (size_t v = v_begin; v < v_end; ++v) {
+      const size_t row = v * static_cast<size_t>(w);
+      const float yf = (static_cast<float>(v) - cy) * ify;
+      const uint16_t* d = depth.data.data() + row;
+      Vec3f* out = cloud->xyz.data() + row;
+      for (int u = 0; u < w; ++u) {
+        const float z = d[u] * 0.001f;
+        const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m);
+        const Vec3f p{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
+        out[u] = ok ? p : invalid;
       }
-      if (with_color) cloud->rgba[i] = PackRgba(color->data[i]);
+      if (with_color) {
+        for (int u = 0; u < w; ++u) cloud->rgba[row + u] = PackRgba(color->data[row + u]);
+      }
     }
+  };
+  const size_t num_rows = h > 0 ? static_cast<size_t>(h) : 0;
+  constexpr size_t kRowGrain = 32;
+  if (pool != nullptr) {
+    pool->ParallelFor(num_rows, kRowGrain, rows);
+  } else {
+    rows(0, num_rows);
   }
 }
 

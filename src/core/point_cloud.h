@@ -8,6 +8,8 @@
 
 namespace clutterseg::core {
 
+class ThreadPool;
+
 /// A point cloud in the camera frame, metres. Organized when `height > 1`: point (u, v) is
 /// index `v * width + u`, and invalid pixels hold NaN coordinates. An unorganized cloud has
 /// `height == 1`. `rgba` (0xAARRGGBB) and `label` are either empty or have one entry per point.
@@ -29,9 +31,10 @@ struct PointCloud {
 
 /// Back-projects a depth image (millimetres, 0 = invalid) into an organized cloud, reusing
 /// `cloud`'s storage. Colour is copied when `color` is non-null and has the depth's size.
-/// Depth values outside [min_m, max_m] become invalid.
+/// Depth values outside [min_m, max_m] become invalid. Rows are split over `pool` when it is
+/// non-null; the result does not depend on it.
 void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& intrinsics,
                        const ColorImage* color, PointCloud* cloud, float min_m = 0.f,
-                       float max_m = 100.f);
+                       float max_m = 100.f, ThreadPool* pool = nullptr);
 
 }  // namespace clutterseg::core

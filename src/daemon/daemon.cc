@@ -411,7 +411,6 @@ struct Daemon::Impl {
            frame.color.height == frame.depth.height)
               ? &frame.color
               : nullptr;
-      core::DepthToPointCloud(frame.depth, frame.intrinsics, color, &lane->cloud);
       // One frame in flight (a camera at 30 Hz): the pool splits it over the cores for the
       // lowest latency. Several in flight (replay at full speed): every core already runs a
       // lane, and fanning out would only add a thread per core; the output is the same.
@@ -420,7 +419,10 @@ struct Daemon::Impl {
         ~BusyLane() { count->fetch_sub(1); }
       } busy{&busy_lanes};
       const int lanes_busy = busy_lanes.fetch_add(1) + 1;
-      lane->segmenter->SetPool(lanes_busy > 1 ? nullptr : pool.get());
+      core::ThreadPool* frame_pool = lanes_busy > 1 ? nullptr : pool.get();
+      core::DepthToPointCloud(frame.depth, frame.intrinsics, color, &lane->cloud, 0.f, 100.f,
+                              frame_pool);
+      lane->segmenter->SetPool(frame_pool);
       lane->segmenter->Process(lane->cloud, frame.intrinsics, &lane->result);
       lane->segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
       lane->stages = StageValues(lane->result.times);

@@ -5,7 +5,9 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <vector>
 
+#include "core/thread_pool.h"
 #include "graph/linkage.h"
 #include "graph/patch_features.h"
 #include "optimize/planes.h"
@@ -17,6 +19,7 @@ namespace clutterseg::pipeline {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+constexpr size_t kPointGrain = 32768;
 
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
@@ -42,7 +45,8 @@ struct Segmenter::Impl {
   Refiner refiner;
   ObjectExtractor objects;
 
-  core::PointCloud work;  // the input restricted to the working depth range
+  core::PointCloud work;              // the input restricted to the working depth range
+  std::vector<uint32_t> chunk_valid;  // valid points per chunk of the restriction
   supervoxel::Supervoxels sv;
   graph::PatchFeatures patch;
   graph::LinkageResult link;
@@ -84,14 +88,26 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   const core::Vec3f invalid{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
   const core::Vec3f* src = cloud.xyz.data();
   core::Vec3f* dst = m.work.xyz.data();
-  uint32_t num_valid = 0;
-  for (size_t i = 0; i < cloud.xyz.size(); ++i) {
-    const core::Vec3f p = src[i];
-    const bool ok = (std::fabs(p.x) < kInf) & (std::fabs(p.y) < kInf) & (std::fabs(p.z) < kInf) &
-                    (p.z >= zmin) & (p.z <= zmax);
-    dst[i] = ok ? p : invalid;
-    num_valid += ok ? 1u : 0u;
+  const size_t n = cloud.xyz.size();
+  const size_t num_chunks = core::ThreadPool::NumChunks(n, kPointGrain);
+  m.chunk_valid.assign(num_chunks, 0);
+  auto restrict_points = [&](size_t b, size_t e) {
+    uint32_t valid = 0;
+    for (size_t i = b; i < e; ++i) {
+      const core::Vec3f p = src[i];
+      const bool ok = (std::fabs(p.x) < kInf) & (std::fabs(p.y) < kInf) & (std::fabs(p.z) < kInf) &
+                      (p.z >= zmin) & (p.z <= zmax);
+      dst[i] = ok ? p : invalid;
+      valid += ok ? 1u : 0u;
+    }
+    m.chunk_valid[b / kPointGrain] = valid;
+  };
+  if (m.pool != nullptr) {
+    m.pool->ParallelFor(n, kPointGrain, restrict_points);
+  } else if (n > 0) {
+    for (size_t b = 0; b < n; b += kPointGrain) restrict_points(b, std::min(n, b + kPointGrain));
   }
+  const uint32_t num_valid = std::accumulate(m.chunk_valid.begin(), m.chunk_valid.end(), 0u);
   if (m.params.supervoxel.color_importance > 0.f && cloud.has_color()) {
     m.work.rgba = cloud.rgba;
   } else {

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "core/thread_pool.h"
+
 namespace clutterseg::core {
 namespace {
 
@@ -35,6 +37,36 @@ TEST(DepthToPointCloud, RangeLimitsInvalidate) {
   PointCloud cloud;
   DepthToPointCloud(depth, k, nullptr, &cloud, 0.6f, 4.0f);
   EXPECT_EQ(cloud.CountValid(), 0u);
+}
+
+TEST(DepthToPointCloud, PoolGivesTheSameCloud) {
+  CameraIntrinsics k;
+  DepthImage depth(640, 480, 0);
+  ColorImage color(640, 480, Rgb8{});
+  for (int v = 0; v < 480; ++v) {
+    for (int u = 0; u < 640; ++u) {
+      // Holes, near and far depths and an edge every few pixels.
+      depth.at(u, v) = static_cast<uint16_t>((u * 7 + v * 13) % 11 == 0 ? 0 : 400 + (u * v) % 5000);
+      color.at(u, v) = Rgb8{static_cast<uint8_t>(u), static_cast<uint8_t>(v), 7};
+    }
+  }
+  PointCloud serial, pooled;
+  DepthToPointCloud(depth, k, &color, &serial, 0.5f, 4.0f);
+  ThreadPool pool(3);
+  DepthToPointCloud(depth, k, &color, &pooled, 0.5f, 4.0f, &pool);
+  ASSERT_EQ(serial.size(), pooled.size());
+  EXPECT_GT(serial.CountValid(), 100000u);
+  EXPECT_LT(serial.CountValid(), serial.size());
+  for (size_t i = 0; i < serial.size(); ++i) {
+    const Vec3f a = serial.xyz[i], b = pooled.xyz[i];
+    ASSERT_EQ(IsValid(a), IsValid(b)) << i;
+    if (IsValid(a)) {
+      ASSERT_EQ(a.x, b.x) << i;
+      ASSERT_EQ(a.y, b.y) << i;
+      ASSERT_EQ(a.z, b.z) << i;
+    }
+  }
+  EXPECT_EQ(serial.rgba, pooled.rgba);
 }
 
 TEST(CameraIntrinsics, ValidateNamesTheBadKey) {
