@@ -11,6 +11,9 @@ namespace {
 
 // Relative improvement below which a move is treated as no change (guards rounding loops).
 constexpr double kRelativeTolerance = 1e-12;
+// var_of_node_ of nodes outside the graph of a move.
+constexpr int32_t kFixedAlpha = -1;  // labelled alpha already
+constexpr int32_t kFixedKeep = -2;   // keeps its label in every minimum
 
 }  // namespace
 
@@ -56,7 +59,18 @@ double PottsEnergy::Evaluate(std::span<const int32_t> labels) const {
 
 double AlphaExpansion::Expand(const PottsEnergy& en, int alpha, std::vector<int32_t>* labels) {
   CLUTTERSEG_DEMAND(labels->size() == static_cast<size_t>(en.num_nodes));
+  SumNodeWeights(en);
   return ExpandFrom(en, alpha, en.Evaluate(*labels), labels);
+}
+
+void AlphaExpansion::SumNodeWeights(const PottsEnergy& en) {
+  const auto n = static_cast<size_t>(en.num_nodes);
+  node_weight_.assign(n, 0.0);
+  for (size_t i = 0; i < n; ++i) {
+    double sum = 0.0;
+    for (uint32_t s = en.offsets[i]; s < en.offsets[i + 1]; ++s) sum += en.weight(s);
+    node_weight_[i] = sum;
+  }
 }
 
 double AlphaExpansion::ExpandFrom(const PottsEnergy& en, int alpha, double before,
@@ -68,10 +82,24 @@ double AlphaExpansion::ExpandFrom(const PottsEnergy& en, int alpha, double befor
   const std::vector<int32_t>& lab = *labels;
 
   // Variables: nodes not yet labelled alpha. x = 0 keeps the label (source side),
-  // x = 1 takes alpha (sink side).
+  // x = 1 takes alpha (sink side). A node whose unary cost rises by more than the total
+  // weight of its edges when it takes alpha keeps its label in every minimum (its edges can
+  // lower the energy by at most that total), so it is fixed instead: most patches are far
+  // from most planes, and the graph shrinks to the nodes alpha can win.
   var_of_node_.resize(n);
   int num_vars = 0;
-  for (int i = 0; i < n; ++i) var_of_node_[i] = lab[i] == alpha ? -1 : num_vars++;
+  for (int i = 0; i < n; ++i) {
+    const size_t row = static_cast<size_t>(i) * L;
+    if (lab[i] == alpha) {
+      var_of_node_[i] = kFixedAlpha;
+    } else if (double{en.unary[row + static_cast<size_t>(alpha)]} -
+                   double{en.unary[row + static_cast<size_t>(lab[i])]} >
+               node_weight_[static_cast<size_t>(i)]) {
+      var_of_node_[i] = kFixedKeep;
+    } else {
+      var_of_node_[i] = num_vars++;
+    }
+  }
   if (num_vars == 0) return before;
   cost_keep_.assign(num_vars, 0.0);
   cost_alpha_.assign(num_vars, 0.0);
@@ -82,6 +110,16 @@ double AlphaExpansion::ExpandFrom(const PottsEnergy& en, int alpha, double befor
     cost_alpha_[v] = en.unary[static_cast<size_t>(i) * L + static_cast<size_t>(alpha)];
   }
   flow_.Reset(num_vars, static_cast<int>(en.neighbors.size() / 2));
+  // An edge to a fixed node is a unary term of the variable: next to an alpha node, keeping
+  // costs w; next to a node keeping label l, keeping costs w [l != l_j] and alpha costs w.
+  auto fixed_neighbour = [&](int fixed_node, int var_node, int var, double w) {
+    if (var_of_node_[fixed_node] == kFixedAlpha) {
+      cost_keep_[var] += w;
+    } else {
+      if (lab[fixed_node] != lab[var_node]) cost_keep_[var] += w;
+      cost_alpha_[var] += w;
+    }
+  };
   for (int i = 0; i < n; ++i) {
     const int vi = var_of_node_[i];
     for (uint32_t s = en.offsets[i]; s < en.offsets[i + 1]; ++s) {
@@ -92,11 +130,11 @@ double AlphaExpansion::ExpandFrom(const PottsEnergy& en, int alpha, double befor
       const int vj = var_of_node_[j];
       if (vi < 0 && vj < 0) continue;
       if (vi < 0) {
-        cost_keep_[vj] += w;  // j keeps a label != alpha next to an alpha node
+        fixed_neighbour(i, j, vj, w);
         continue;
       }
       if (vj < 0) {
-        cost_keep_[vi] += w;
+        fixed_neighbour(j, i, vi, w);
         continue;
       }
       // E00 = w[l_i != l_j], E01 = E10 = w, E11 = 0 (Kolmogorov-Zabih decomposition):
@@ -157,6 +195,7 @@ double AlphaExpansion::Minimize(const PottsEnergy& en, int max_cycles,
   }
   double energy = en.Evaluate(*labels);
   if (en.num_labels == 1 || n == 0) return energy;
+  SumNodeWeights(en);
   // An expansion move is optimal for its alpha: expanding alpha again before any other move
   // changed the labels cannot lower the energy, so it is skipped (the result is the same; the
   // last, confirming cycle mostly disappears).

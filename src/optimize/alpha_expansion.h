@@ -62,7 +62,10 @@ class AlphaExpansion {
   double ExpandFrom(const PottsEnergy& energy, int alpha, double current,
                     std::vector<int32_t>* labels);
 
+  void SumNodeWeights(const PottsEnergy& energy);  // fills node_weight_
+
   MaxFlow flow_;
+  std::vector<double> node_weight_;  // per node: total weight of its edges
   std::vector<int32_t> var_of_node_;
   std::vector<double> cost_keep_;
   std::vector<double> cost_alpha_;

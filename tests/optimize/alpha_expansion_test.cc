@@ -32,12 +32,12 @@ struct Problem {
   }
 };
 
-Problem MakeProblem(std::mt19937* rng, int n, int labels, double density) {
+Problem MakeProblem(std::mt19937* rng, int n, int labels, double density, float unary_scale = 3.f) {
   Problem p;
   p.n = n;
   p.labels = labels;
   std::uniform_real_distribution<float> u(0.f, 1.f);
-  for (int i = 0; i < n * labels; ++i) p.unary.push_back(3.f * u(*rng));
+  for (int i = 0; i < n * labels; ++i) p.unary.push_back(unary_scale * u(*rng));
   std::vector<std::pair<uint32_t, uint32_t>> edges;
   std::vector<float> w_of_edge;
   for (int i = 0; i < n; ++i) {
@@ -103,6 +103,28 @@ TEST(AlphaExpansion, EachMoveIsTheOptimalExpansion) {
       ASSERT_NEAR(after, expected, 1e-5) << "trial " << trial << " alpha " << alpha;
       ASSERT_NEAR(after, e.Evaluate(lab), 1e-9);
       ASSERT_LE(after, before + 1e-12);
+    }
+  }
+}
+
+// Unary costs far above the edge weights: most nodes cannot profit from alpha and are left
+// out of the move's graph. The move must still be the optimal expansion.
+TEST(AlphaExpansion, MovesStayOptimalWhenMostNodesAreFixed) {
+  std::mt19937 rng(7);
+  AlphaExpansion dut;
+  for (int trial = 0; trial < 300; ++trial) {
+    const int n = 4 + trial % 8;
+    const int labels = 2 + trial % 4;
+    const Problem p = MakeProblem(&rng, n, labels, 0.6, trial % 2 == 0 ? 4.f : 8.f);
+    const PottsEnergy e = p.Energy();
+    std::uniform_int_distribution<int> pick(0, labels - 1);
+    std::vector<int32_t> lab(n);
+    for (auto& l : lab) l = pick(rng);
+    for (int alpha = 0; alpha < labels; ++alpha) {
+      const double expected = BestExpansion(e, lab, alpha);
+      const double after = dut.Expand(e, alpha, &lab);
+      ASSERT_NEAR(after, expected, 1e-5) << "trial " << trial << " alpha " << alpha;
+      ASSERT_NEAR(after, e.Evaluate(lab), 1e-9);
     }
   }
 }
