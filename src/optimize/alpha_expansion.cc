@@ -120,19 +120,17 @@ double AlphaExpansion::ExpandFrom(const PottsEnergy& en, int alpha, double befor
       cost_alpha_[var] += w;
     }
   };
+  // Edges are visited from their variables only (fixed nodes are most of the graph): an edge
+  // to a fixed node once, from its variable; an edge between variables once, from the lower.
   for (int i = 0; i < n; ++i) {
     const int vi = var_of_node_[i];
+    if (vi < 0) continue;
     for (uint32_t s = en.offsets[i]; s < en.offsets[i + 1]; ++s) {
       const auto j = static_cast<int>(en.neighbors[s]);
-      if (j <= i) continue;
+      const int vj = var_of_node_[j];
+      if (vj >= 0 && j <= i) continue;
       const double w = en.weight(s);
       if (w == 0.0) continue;
-      const int vj = var_of_node_[j];
-      if (vi < 0 && vj < 0) continue;
-      if (vi < 0) {
-        fixed_neighbour(i, j, vj, w);
-        continue;
-      }
       if (vj < 0) {
         fixed_neighbour(j, i, vi, w);
         continue;

@@ -69,25 +69,42 @@ void PlaneLabeler::PackPatches(const graph::PatchFeatures& f) {
     if (f.num_points[i] < min_points) continue;
     packed_.push_back(PackedPatch{f.centroid[i], f.normal[i], static_cast<uint32_t>(i)});
   }
+  // Packed patches by x, for the neighbourhood queries (ties by position: a total order).
+  by_x_.resize(packed_.size());
+  for (size_t k = 0; k < packed_.size(); ++k) {
+    by_x_[k] = {packed_[k].centroid.x, static_cast<uint32_t>(k)};
+  }
+  std::sort(by_x_.begin(), by_x_.end());
 }
 
 void PlaneLabeler::CollectInliers(const core::Vec3f& normal, float d, float tolerance_scale,
                                   const core::Vec3f* center, float radius_m,
-                                  std::vector<uint32_t>* inliers) const {
+                                  std::vector<uint32_t>* inliers) {
   inliers->clear();
   const float rho = params_.inlier_distance_m * tolerance_scale;
   const float min_cos = static_cast<float>(
       std::cos(std::min(89.0, double{params_.inlier_angle_deg} * tolerance_scale) * kDegToRad));
   if (center != nullptr) {
+    // Only patches whose x lies within the radius (widened by a margin that covers rounding)
+    // can pass; their positions are sorted so that the inliers come in packed order, as from
+    // a full scan.
     const float r2 = radius_m * radius_m;
-    for (const PackedPatch& p : packed_) {
+    const float margin = radius_m * 1.001f + 1e-6f;
+    std::vector<uint32_t>& near = near_;
+    near.clear();
+    auto it = std::lower_bound(by_x_.begin(), by_x_.end(),
+                               std::pair<float, uint32_t>{center->x - margin, 0u});
+    for (; it != by_x_.end() && it->first <= center->x + margin; ++it) {
+      const PackedPatch& p = packed_[it->second];
       const float dx = p.centroid.x - center->x, dy = p.centroid.y - center->y,
                   dz = p.centroid.z - center->z;
       if (dx * dx + dy * dy + dz * dz > r2) continue;
       if (std::fabs(Dot(normal, p.centroid) + d) > rho) continue;
       if (Dot(normal, p.normal) < min_cos) continue;
-      inliers->push_back(p.index);
+      near.push_back(it->second);
     }
+    std::sort(near.begin(), near.end());
+    for (const uint32_t k : near) inliers->push_back(packed_[k].index);
     return;
   }
   for (const PackedPatch& p : packed_) {

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "graph/patch_features.h"
@@ -69,8 +70,7 @@ class PlaneLabeler {
   // Patches within rho (times tolerance_scale) of the plane whose normal is within the inlier
   // angle (times tolerance_scale, capped below 90 deg) and, with a centre, within radius_m of it.
   void CollectInliers(const core::Vec3f& normal, float d, float tolerance_scale,
-                      const core::Vec3f* center, float radius_m,
-                      std::vector<uint32_t>* inliers) const;
+                      const core::Vec3f* center, float radius_m, std::vector<uint32_t>* inliers);
 
   const PlaneParams params_;
   AlphaExpansion expansion_;
@@ -84,6 +84,8 @@ class PlaneLabeler {
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;
   std::vector<PackedPatch> packed_;
+  std::vector<std::pair<float, uint32_t>> by_x_;  // (centroid x, packed position), ascending
+  std::vector<uint32_t> near_;                    // scratch of neighbourhood queries
   double last_expansion_ms_{0.0};
   std::vector<uint8_t> covered_;
   std::vector<float> unary_;
