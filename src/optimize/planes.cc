@@ -152,7 +152,11 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
       if (inliers_.size() >= 3) internal::FitPlane(f, inliers_, &normal, &d, &points);
     }
     CollectInliers(normal, d, 1.f, nullptr, 0.f, &inliers_);
-    if (inliers_.size() < min_inliers) continue;
+    if (inliers_.size() < min_inliers) {
+      // The seeds of a surface too small for a plane would all repeat this failing trial.
+      for (uint32_t i : inliers_) covered_[i] = 1;
+      continue;
+    }
     bool ok = true;
     for (int it = 0; it <= params_.refit_iterations && ok; ++it) {
       ok = internal::FitPlane(f, inliers_, &normal, &d, &points);
