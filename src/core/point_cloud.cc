@@ -1,5 +1,6 @@
 #include "core/point_cloud.h"
 
+#include <atomic>
 #include <sstream>
 #include <stdexcept>
 
@@ -46,8 +47,9 @@ std::string CameraIntrinsics::ToString() const {
   return os.str();
 }
 
-void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k, const ColorImage* color,
-                       PointCloud* cloud, float min_m, float max_m, ThreadPool* pool) {
+size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
+                         const ColorImage* color, PointCloud* cloud, float min_m, float max_m,
+                         ThreadPool* pool) {
   const int w = depth.width;
   const int h = depth.height;
   cloud->width = w;
@@ -66,7 +68,11 @@ void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k, const
   const float cy = static_cast<float>(k.cy);
   const Vec3f invalid{kInvalidDepth, kInvalidDepth, kInvalidDepth};
   // Branch-free per pixel: valid and invalid depths interleave along object edges.
+  const size_t num_rows = h > 0 ? static_cast<size_t>(h) : 0;
+  constexpr size_t kRowGrain = 32;
+  std::atomic<size_t> num_valid{0};  // one addition per chunk of rows
   auto rows = [&](size_t v_begin, size_t v_end) {
+    uint32_t valid = 0;
     for (size_t v = v_begin; v < v_end; ++v) {
       const size_t row = v * static_cast<size_t>(w);
       const float yf = (static_cast<float>(v) - cy) * ify;
@@ -77,19 +83,20 @@ void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k, const
         const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m);
         const Vec3f p{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
         out[u] = ok ? p : invalid;
+        valid += ok ? 1u : 0u;
       }
       if (with_color) {
         for (int u = 0; u < w; ++u) cloud->rgba[row + u] = PackRgba(color->data[row + u]);
       }
     }
+    num_valid.fetch_add(valid, std::memory_order_relaxed);
   };
-  const size_t num_rows = h > 0 ? static_cast<size_t>(h) : 0;
-  constexpr size_t kRowGrain = 32;
   if (pool != nullptr) {
     pool->ParallelFor(num_rows, kRowGrain, rows);
   } else {
     rows(0, num_rows);
   }
+  return num_valid.load(std::memory_order_relaxed);
 }
 
 }  // namespace clutterseg::core

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -32,9 +33,9 @@ struct PointCloud {
 /// Back-projects a depth image (millimetres, 0 = invalid) into an organized cloud, reusing
 /// `cloud`'s storage. Colour is copied when `color` is non-null and has the depth's size.
 /// Depth values outside [min_m, max_m] become invalid. Rows are split over `pool` when it is
-/// non-null; the result does not depend on it.
-void DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& intrinsics,
-                       const ColorImage* color, PointCloud* cloud, float min_m = 0.f,
-                       float max_m = 100.f, ThreadPool* pool = nullptr);
+/// non-null; the result does not depend on it. Returns the number of valid points.
+size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& intrinsics,
+                         const ColorImage* color, PointCloud* cloud, float min_m = 0.f,
+                         float max_m = 100.f, ThreadPool* pool = nullptr);
 
 }  // namespace clutterseg::core

@@ -50,7 +50,6 @@ struct Lane {
   std::thread thread;
   std::unique_ptr<pipeline::Segmenter> segmenter;
   uint64_t params_generation{0};
-  core::PointCloud cloud;
   pipeline::SegmentationResult result;
   core::ColorImage base_image;
   core::ColorImage overlay;
@@ -420,10 +419,8 @@ struct Daemon::Impl {
       } busy{&busy_lanes};
       const int lanes_busy = busy_lanes.fetch_add(1) + 1;
       core::ThreadPool* frame_pool = lanes_busy > 1 ? nullptr : pool.get();
-      core::DepthToPointCloud(frame.depth, frame.intrinsics, color, &lane->cloud, 0.f, 100.f,
-                              frame_pool);
       lane->segmenter->SetPool(frame_pool);
-      lane->segmenter->Process(lane->cloud, frame.intrinsics, &lane->result);
+      lane->segmenter->ProcessDepth(frame.depth, color, frame.intrinsics, &lane->result);
       lane->segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
       lane->stages = StageValues(lane->result.times);
 
@@ -437,7 +434,7 @@ struct Daemon::Impl {
         EncodeLabelImage(lane->result.labels, info, config.label_compression, &lane->labels);
       }
       if (!config.png_dir.empty()) {
-        pipeline::CloudToImage(lane->cloud, &lane->base_image);
+        pipeline::CloudToImage(lane->segmenter->working_cloud(), &lane->base_image);
         pipeline::RenderOverlay(lane->result.labels, &lane->base_image, &lane->overlay);
         char file[64];
         std::snprintf(file, sizeof(file), "/frame_%06lld.png",

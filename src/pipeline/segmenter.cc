@@ -70,15 +70,11 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
                         SegmentationResult* result) {
   Impl& m = *impl_;
   const auto t_start = Clock::now();
-  StageTimes& times = result->times;
-  times = StageTimes{};
+  result->times = StageTimes{};
 
   // Working cloud: points outside the depth range become invalid.
-  auto t0 = Clock::now();
-  const int width = cloud.width;
-  const int height = std::max(cloud.height, 1);
-  m.work.width = width;
-  m.work.height = height;
+  m.work.width = cloud.width;
+  m.work.height = std::max(cloud.height, 1);
   m.work.xyz.resize(cloud.xyz.size());
   const float zmin = m.params.objects.min_depth_m;
   const float zmax = m.params.objects.max_depth_m;
@@ -107,14 +103,39 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   } else if (n > 0) {
     for (size_t b = 0; b < n; b += kPointGrain) restrict_points(b, std::min(n, b + kPointGrain));
   }
-  const uint32_t num_valid = std::accumulate(m.chunk_valid.begin(), m.chunk_valid.end(), 0u);
+  const auto num_valid =
+      static_cast<uint32_t>(std::accumulate(m.chunk_valid.begin(), m.chunk_valid.end(), 0u));
   if (m.params.supervoxel.color_importance > 0.f && cloud.has_color()) {
     m.work.rgba = cloud.rgba;
   } else {
     m.work.rgba.clear();
   }
-  times.points_ms = MsSince(t0);
+  result->times.points_ms = MsSince(t_start);
+  Segment(cloud, intrinsics, num_valid, t_start, result);
+}
 
+void Segmenter::ProcessDepth(const core::DepthImage& depth, const core::ColorImage* color,
+                             const core::CameraIntrinsics& intrinsics, SegmentationResult* result) {
+  Impl& m = *impl_;
+  const auto t_start = Clock::now();
+  result->times = StageTimes{};
+  // Back-projected straight into the working cloud, restricted to the depth range. Its
+  // colour is used by the supervoxels only when color_importance > 0, by the objects always.
+  const size_t num_valid =
+      core::DepthToPointCloud(depth, intrinsics, color, &m.work, m.params.objects.min_depth_m,
+                              m.params.objects.max_depth_m, m.pool);
+  result->times.points_ms = MsSince(t_start);
+  Segment(m.work, intrinsics, static_cast<uint32_t>(num_valid), t_start, result);
+}
+
+const core::PointCloud& Segmenter::working_cloud() const { return impl_->work; }
+
+void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+                        uint32_t num_valid, Clock::time_point t_start, SegmentationResult* result) {
+  Impl& m = *impl_;
+  StageTimes& times = result->times;
+  const int width = m.work.width;
+  const int height = m.work.height;
   result->width = width;
   result->height = height;
   result->num_valid_points = num_valid;
@@ -127,7 +148,7 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
     return;
   }
 
-  t0 = Clock::now();
+  auto t0 = Clock::now();
   m.supervoxelizer.Compute(m.work, m.pool, &m.sv);
   const supervoxel::SupervoxelTimings& st = m.supervoxelizer.timings();
   times.voxelize_ms = st.voxelize_ms + st.adjacency_ms;

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <chrono>
+#include <cstdint>
 #include <memory>
 
 #include "core/camera_intrinsics.h"
@@ -33,6 +35,14 @@ class Segmenter {
   /// result; it never throws for frame content.
   void Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
                SegmentationResult* result);
+  /// Back-projects `depth` (millimetres, 0 = invalid; `color` optional, may be null) straight
+  /// into the working cloud and segments it: the same result as DepthToPointCloud followed by
+  /// Process, one pass over the pixels fewer.
+  void ProcessDepth(const core::DepthImage& depth, const core::ColorImage* color,
+                    const core::CameraIntrinsics& intrinsics, SegmentationResult* result);
+  /// The cloud the last call segmented: its input restricted to the depth range (objects'
+  /// min/max_depth_m), with ProcessDepth's colour. Valid until the next call.
+  const core::PointCloud& working_cloud() const;
 
   const SegmenterParams& params() const;
 
@@ -42,6 +52,11 @@ class Segmenter {
   void SetPool(core::ThreadPool* pool);
 
  private:
+  // The stages after the working cloud (impl_->work) is ready; `cloud` is the input.
+  void Segment(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+               uint32_t num_valid, std::chrono::steady_clock::time_point t_start,
+               SegmentationResult* result);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

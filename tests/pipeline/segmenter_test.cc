@@ -196,6 +196,38 @@ TEST_F(SegmenterTest, ResultIsIdenticalForAnyThreadCount) {
   }
 }
 
+TEST_F(SegmenterTest, ProcessDepthEqualsBackProjectionThenProcess) {
+  const synth::SceneParams scene_params = SimpleParams();
+  const synth::Scene scene = synth::GenerateScene(scene_params, 23);
+  synth::RenderedFrame frame;
+  synth::RenderScene(scene, scene_params.intrinsics, synth::SensorParams{}, 23, &frame);
+  core::PointCloud cloud;
+  core::DepthToPointCloud(frame.depth, scene_params.intrinsics, &frame.color, &cloud);
+  // A depth range that cuts the scene, so that the restriction matters.
+  params_.objects.max_depth_m = 1.4f;
+  SegmentationResult reference;
+  Segmenter serial(params_);
+  serial.Process(cloud, scene_params.intrinsics, &reference);
+  ASSERT_GT(reference.objects.size(), 0u);
+  ASSERT_LT(reference.num_valid_points, cloud.CountValid());
+  core::ThreadPool pool(3);
+  Segmenter pooled(params_, &pool);
+  for (Segmenter* dut : {&serial, &pooled}) {
+    SegmentationResult result;
+    dut->ProcessDepth(frame.depth, &frame.color, scene_params.intrinsics, &result);
+    EXPECT_EQ(result.num_valid_points, reference.num_valid_points);
+    EXPECT_EQ(dut->working_cloud().CountValid(), reference.num_valid_points);
+    EXPECT_EQ(result.labels.data, reference.labels.data);
+    ASSERT_EQ(result.objects.size(), reference.objects.size());
+    for (size_t k = 0; k < result.objects.size(); ++k) {
+      EXPECT_EQ(result.objects[k].num_points, reference.objects[k].num_points);
+      EXPECT_EQ(result.objects[k].centroid.x, reference.objects[k].centroid.x);
+      EXPECT_EQ(result.objects[k].mean_color.r, reference.objects[k].mean_color.r);
+      EXPECT_EQ(result.objects[k].mean_color.g, reference.objects[k].mean_color.g);
+    }
+  }
+}
+
 TEST_F(SegmenterTest, ObjectGeometryMatchesTheLabelImage) {
   const Rendered r = Render(SimpleParams(), 31, /*noise=*/false);
   Segmenter dut(params_);
