@@ -366,14 +366,19 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
   }
   const size_t num_columns = column_key_.size();
   column_begin_.push_back(static_cast<uint32_t>(num_voxels));
-  nbr_fixed_.resize(26 * num_voxels);
   nbr_count_.resize(num_voxels);
 
   // For every column, its 8 neighbour columns are found by pointers that only move forward
   // (one per row x-1, x, x+1); within a pair of columns a second pointer walks z. Neighbours
   // come out in ascending index order because index order is (x, y, z) order.
+  // Each chunk of columns writes its voxels' neighbours densely into a list of its own, which
+  // is copied into place once all counts are known.
   constexpr size_t kColumnGrain = 1024;
+  const size_t num_chunks = core::ThreadPool::NumChunks(num_columns, kColumnGrain);
+  if (chunk_nbr_.size() < num_chunks) chunk_nbr_.resize(num_chunks);
   ForChunks(pool, num_columns, kColumnGrain, [&](size_t cb, size_t ce) {
+    std::vector<uint32_t>& list = chunk_nbr_[cb / kColumnGrain];
+    size_t list_size = 0;
     const uint64_t* ckeys = column_key_.data();
     const uint64_t one_x = uint64_t{1} << kFieldBits;
     size_t row_ptr[3];
@@ -410,7 +415,8 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
       const uint32_t self_end = column_begin_[c + 1];
       for (uint32_t a = self_begin; a < self_end; ++a) {
         const int32_t za = grid->coord[a].z;
-        uint32_t* out = &nbr_fixed_[26 * static_cast<size_t>(a)];
+        if (list.size() < list_size + 26) list.resize(std::max(2 * list.size(), list_size + 26));
+        uint32_t* out = list.data() + list_size;
         int count = 0;
         for (int slot = 0; slot < 9; ++slot) {
           if (slot == 4) {
@@ -425,6 +431,7 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
           for (; q < end && grid->coord[q].z <= za + 1; ++q) out[count++] = q;
         }
         nbr_count_[a] = static_cast<uint8_t>(count);
+        list_size += static_cast<size_t>(count);
       }
     }
   });
@@ -432,10 +439,13 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
     grid->adjacency_offsets[v + 1] = grid->adjacency_offsets[v] + nbr_count_[v];
   }
   grid->adjacency.resize(grid->adjacency_offsets[num_voxels]);
-  ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
-    for (size_t v = b; v < e; ++v) {
-      std::copy_n(&nbr_fixed_[26 * v], nbr_count_[v],
-                  grid->adjacency.begin() + grid->adjacency_offsets[v]);
+  ForChunks(pool, num_chunks, 1, [&](size_t b, size_t e) {
+    for (size_t k = b; k < e; ++k) {
+      const size_t first = column_begin_[k * kColumnGrain];
+      const size_t last = column_begin_[std::min(num_columns, (k + 1) * kColumnGrain)];
+      const uint32_t begin = grid->adjacency_offsets[first];
+      std::copy_n(chunk_nbr_[k].begin(), grid->adjacency_offsets[last] - begin,
+                  grid->adjacency.begin() + begin);
     }
   });
 }

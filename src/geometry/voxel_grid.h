@@ -145,7 +145,7 @@ class Voxelizer {
   // Columns of voxels sharing (x, y): packed (x, y) and first voxel; one extra end entry.
   std::vector<uint64_t> column_key_;
   std::vector<uint32_t> column_begin_;
-  std::vector<uint32_t> nbr_fixed_;  // 26 slots per voxel
+  std::vector<std::vector<uint32_t>> chunk_nbr_;  // neighbours per chunk of columns
   std::vector<uint8_t> nbr_count_;
 };
 
