@@ -114,7 +114,8 @@ void ThreadPool::ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, si
   if (n == 0) return;
   if (grain == 0) grain = 1;
   const size_t chunks = NumChunks(n, grain);
-  if (chunks == 1 || workers_.empty() || InWorker()) {
+  if (chunks == 1 || workers_.empty() || InWorker() ||
+      active_callers_.load(std::memory_order_relaxed) > 1) {
     for (size_t c = 0; c < chunks; ++c) fn(c * grain, std::min(n, (c + 1) * grain));
     return;
   }

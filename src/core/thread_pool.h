@@ -1,5 +1,6 @@
 #pragma once
 
+#include <atomic>
 #include <condition_variable>
 #include <cstddef>
 #include <functional>
@@ -52,6 +53,25 @@ class ThreadPool {
   /// True when called from one of this pool's worker threads.
   bool InWorker() const;
 
+  /// Marks a long-running caller (e.g. a thread segmenting one frame) as active for its
+  /// lifetime. While more than one caller is active, ParallelFor runs inline: each active
+  /// caller already keeps a core busy, and fanning out would only add threads per core. As
+  /// soon as one is left, its ParallelFor calls fan out again. Results do not change.
+  class ActiveCaller {
+   public:
+    explicit ActiveCaller(ThreadPool* pool) : pool_(pool) {
+      if (pool_ != nullptr) pool_->active_callers_.fetch_add(1, std::memory_order_relaxed);
+    }
+    ~ActiveCaller() {
+      if (pool_ != nullptr) pool_->active_callers_.fetch_sub(1, std::memory_order_relaxed);
+    }
+    ActiveCaller(const ActiveCaller&) = delete;
+    ActiveCaller& operator=(const ActiveCaller&) = delete;
+
+   private:
+    ThreadPool* pool_;
+  };
+
  private:
   struct ParallelJob;
   // A queued unit of work: a ParallelFor helper (job set) or a submitted task (fn set). A
@@ -73,6 +93,7 @@ class ThreadPool {
   size_t head_{0};
   size_t count_{0};
   bool stopping_{false};
+  std::atomic<int> active_callers_{0};  // see ActiveCaller
 };
 
 }  // namespace clutterseg::core

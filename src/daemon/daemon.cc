@@ -121,7 +121,6 @@ struct Daemon::Impl {
   // Counters and state for status_t.
   std::atomic<uint64_t> captured{0};
   std::atomic<uint64_t> processed{0};
-  std::atomic<int> busy_lanes{0};  // lanes inside ProcessFrame
   std::atomic<uint64_t> published{0};
   std::atomic<uint64_t> discarded{0};
   std::atomic<uint64_t> reconnects{0};
@@ -412,14 +411,10 @@ struct Daemon::Impl {
               : nullptr;
       // One frame in flight (a camera at 30 Hz): the pool splits it over the cores for the
       // lowest latency. Several in flight (replay at full speed): every core already runs a
-      // lane, and fanning out would only add a thread per core; the output is the same.
-      struct BusyLane {
-        std::atomic<int>* count;
-        ~BusyLane() { count->fetch_sub(1); }
-      } busy{&busy_lanes};
-      const int lanes_busy = busy_lanes.fetch_add(1) + 1;
-      core::ThreadPool* frame_pool = lanes_busy > 1 ? nullptr : pool.get();
-      lane->segmenter->SetPool(frame_pool);
+      // lane, so the pool runs each lane's work inline until only one lane is left, whose
+      // remaining stages then fan out again. The output is the same either way.
+      const core::ThreadPool::ActiveCaller active(pool.get());
+      lane->segmenter->SetPool(pool.get());
       lane->segmenter->ProcessDepth(frame.depth, color, frame.intrinsics, &lane->result);
       lane->segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
       lane->stages = StageValues(lane->result.times);

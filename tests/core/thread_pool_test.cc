@@ -1,6 +1,8 @@
 #include "core/thread_pool.h"
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <cstdlib>
 #include <new>
 #include <numeric>
@@ -134,6 +136,30 @@ TEST(ThreadPool, CallersSharingThePoolDoNotInterfere) {
   tb.join();
   for (int v : a) ASSERT_EQ(v, 300);
   for (int v : b) ASSERT_EQ(v, 300);
+}
+
+TEST(ThreadPool, RunsInlineWhileTwoCallersAreActive) {
+  ThreadPool dut(4);
+  auto chunk_threads = [&] {
+    std::vector<std::thread::id> ids(64);
+    dut.ParallelFor(ids.size(), 1, [&](size_t b, size_t) {
+      // Long enough that idle workers would take chunks if the call fanned out.
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      ids[b] = std::this_thread::get_id();
+    });
+    return ids;
+  };
+  {
+    ThreadPool::ActiveCaller first(&dut);
+    ThreadPool::ActiveCaller second(&dut);
+    for (const std::thread::id id : chunk_threads()) EXPECT_EQ(id, std::this_thread::get_id());
+  }
+  // With at most one active caller the call fans out again: some chunk runs on a worker.
+  ThreadPool::ActiveCaller only(&dut);
+  const std::vector<std::thread::id> ids = chunk_threads();
+  EXPECT_TRUE(std::any_of(ids.begin(), ids.end(),
+                          [](std::thread::id id) { return id != std::this_thread::get_id(); }));
+  ThreadPool::ActiveCaller none(nullptr);  // a null pool is allowed
 }
 
 }  // namespace
