@@ -85,18 +85,18 @@ double BestExpansion(const PottsEnergy& e, const std::vector<int32_t>& labels, i
   return best;
 }
 
-TEST(AlphaExpansion, EachMoveIsTheOptimalExpansion) {
-  std::mt19937 rng(42);
+// Runs every expansion move of `trials` random problems (`make(trial)`) from random
+// labellings and checks each against brute force.
+template <typename MakeProblemFn>
+void ExpectEveryMoveOptimal(std::mt19937* rng, int trials, MakeProblemFn make) {
   AlphaExpansion dut;
-  for (int trial = 0; trial < 300; ++trial) {
-    const int n = 2 + trial % 9;
-    const int labels = 2 + trial % 3;
-    const Problem p = MakeProblem(&rng, n, labels, 0.5);
+  for (int trial = 0; trial < trials; ++trial) {
+    const Problem p = make(trial);
     const PottsEnergy e = p.Energy();
-    std::uniform_int_distribution<int> pick(0, labels - 1);
-    std::vector<int32_t> lab(n);
-    for (auto& l : lab) l = pick(rng);
-    for (int alpha = 0; alpha < labels; ++alpha) {
+    std::uniform_int_distribution<int> pick(0, p.labels - 1);
+    std::vector<int32_t> lab(p.n);
+    for (auto& l : lab) l = pick(*rng);
+    for (int alpha = 0; alpha < p.labels; ++alpha) {
       const double expected = BestExpansion(e, lab, alpha);
       const double before = e.Evaluate(lab);
       const double after = dut.Expand(e, alpha, &lab);
@@ -107,26 +107,19 @@ TEST(AlphaExpansion, EachMoveIsTheOptimalExpansion) {
   }
 }
 
+TEST(AlphaExpansion, EachMoveIsTheOptimalExpansion) {
+  std::mt19937 rng(42);
+  ExpectEveryMoveOptimal(
+      &rng, 300, [&](int trial) { return MakeProblem(&rng, 2 + trial % 9, 2 + trial % 3, 0.5); });
+}
+
 // Unary costs far above the edge weights: most nodes cannot profit from alpha and are left
 // out of the move's graph. The move must still be the optimal expansion.
 TEST(AlphaExpansion, MovesStayOptimalWhenMostNodesAreFixed) {
   std::mt19937 rng(7);
-  AlphaExpansion dut;
-  for (int trial = 0; trial < 300; ++trial) {
-    const int n = 4 + trial % 8;
-    const int labels = 2 + trial % 4;
-    const Problem p = MakeProblem(&rng, n, labels, 0.6, trial % 2 == 0 ? 4.f : 8.f);
-    const PottsEnergy e = p.Energy();
-    std::uniform_int_distribution<int> pick(0, labels - 1);
-    std::vector<int32_t> lab(n);
-    for (auto& l : lab) l = pick(rng);
-    for (int alpha = 0; alpha < labels; ++alpha) {
-      const double expected = BestExpansion(e, lab, alpha);
-      const double after = dut.Expand(e, alpha, &lab);
-      ASSERT_NEAR(after, expected, 1e-5) << "trial " << trial << " alpha " << alpha;
-      ASSERT_NEAR(after, e.Evaluate(lab), 1e-9);
-    }
-  }
+  ExpectEveryMoveOptimal(&rng, 300, [&](int trial) {
+    return MakeProblem(&rng, 4 + trial % 8, 2 + trial % 4, 0.6, trial % 2 == 0 ? 4.f : 8.f);
+  });
 }
 
 TEST(AlphaExpansion, WithinFactorTwoOfGlobalOptimum) {
