@@ -99,11 +99,24 @@ void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]
   vec[2] = o[2] * s;
 }
 
-void SummarizeMoments(const double* m, ShapeSummary* out) {
+void MomentsCovariance(const double* m, double mean[3], double cov[6]) {
   const double inv = 1.0 / m[0];
   const double mx = m[1] * inv, my = m[2] * inv, mz = m[3] * inv;
-  const double cov[6] = {m[4] * inv - mx * mx, m[5] * inv - mx * my, m[6] * inv - mx * mz,
-                         m[7] * inv - my * my, m[8] * inv - my * mz, m[9] * inv - mz * mz};
+  mean[0] = mx;
+  mean[1] = my;
+  mean[2] = mz;
+  cov[0] = m[4] * inv - mx * mx;
+  cov[1] = m[5] * inv - mx * my;
+  cov[2] = m[6] * inv - mx * mz;
+  cov[3] = m[7] * inv - my * my;
+  cov[4] = m[8] * inv - my * mz;
+  cov[5] = m[9] * inv - mz * mz;
+}
+
+void SummarizeMoments(const double* m, ShapeSummary* out) {
+  double mean[3], cov[6];
+  MomentsCovariance(m, mean, cov);
+  const double mx = mean[0], my = mean[1], mz = mean[2];
   out->centroid =
       core::Vec3f{static_cast<float>(mx), static_cast<float>(my), static_cast<float>(mz)};
   for (int k = 0; k < 6; ++k) out->covariance[static_cast<size_t>(k)] = static_cast<float>(cov[k]);

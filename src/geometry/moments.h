@@ -31,6 +31,10 @@ struct ShapeSummary {
 /// separated eigenvalues, about 1e-5 where the smallest is repeated. Pure; thread-safe.
 void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]);
 
+/// Mean (metres) and population covariance (xx, xy, xz, yy, yz, zz; square metres) of the
+/// points whose moments are `m` (kNumMoments values, count > 0). Pure; thread-safe.
+void MomentsCovariance(const double* m, double mean[3], double cov[6]);
+
 /// Covariance analysis of the points whose moments are `m` (kNumMoments values, count > 0).
 /// Pure function; thread-safe.
 void SummarizeMoments(const double* m, ShapeSummary* out);

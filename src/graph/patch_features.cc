@@ -51,6 +51,11 @@ void FinishPatch(double n, const double sum[3], const double sum_sq[6], size_t i
                                            sum_sq[1], sum_sq[2], sum_sq[3], sum_sq[4], sum_sq[5]};
   geometry::ShapeSummary shape;
   geometry::SummarizeMoments(m, &shape);
+  FinishPatchShape(n, shape, i, f);
+}
+
+void FinishPatchShape(double n, const geometry::ShapeSummary& shape, size_t i, PatchFeatures* f) {
+  f->num_points[i] = static_cast<uint32_t>(n);
   f->centroid[i] = shape.centroid;
   f->covariance[i] = shape.covariance;
   f->eigenvalues[i] = shape.eigenvalues;
@@ -89,11 +94,26 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
   f->Resize(num_sv);
   if (num_sv == 0) return;
   if (sv.moments.size() == num_sv * kMoments) {
-    // The supervoxelizer kept its members' moments: no pass over the pixels.
+    // The supervoxelizer kept its members' moments: no pass over the pixels. From 3 points
+    // on it also summarised them exactly as SummarizeMoments does: only the covariance is
+    // left to compute (no second eigen-solve).
     auto finish_from_sv = [&](size_t i0, size_t i1) {
       for (size_t i = i0; i < i1; ++i) {
         const double* m = &sv.moments[i * kMoments];
-        internal::FinishPatch(m[0], m + 1, m + 4, i, f);
+        if (m[0] < 3.0) {
+          internal::FinishPatch(m[0], m + 1, m + 4, i, f);
+          continue;
+        }
+        geometry::ShapeSummary shape;
+        double mean[3], cov[6];
+        geometry::MomentsCovariance(m, mean, cov);
+        for (int k = 0; k < 6; ++k)
+          shape.covariance[static_cast<size_t>(k)] = static_cast<float>(cov[k]);
+        shape.centroid = sv.centroid[i];
+        shape.eigenvalues = sv.eigenvalues[i];
+        shape.normal = sv.normal[i];
+        shape.curvature = sv.curvature[i];
+        internal::FinishPatchShape(m[0], shape, i, f);
       }
     };
     if (pool_ != nullptr) {

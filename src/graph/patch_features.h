@@ -7,6 +7,7 @@
 #include "core/point_cloud.h"
 #include "core/thread_pool.h"
 #include "core/types.h"
+#include "geometry/moments.h"
 #include "supervoxel/supervoxels.h"
 
 namespace clutterseg::graph {
@@ -81,6 +82,9 @@ namespace internal {
 /// coordinate sums `sum` (x, y, z) and sums of products `sum_sq` (xx, xy, xz, yy, yz, zz).
 void FinishPatch(double n, const double sum[3], const double sum_sq[6], size_t i,
                  PatchFeatures* features);
+/// Fills the feature entries of patch `i` (`n` > 0 points) from its shape summary.
+void FinishPatchShape(double n, const geometry::ShapeSummary& shape, size_t i,
+                      PatchFeatures* features);
 
 }  // namespace internal
 
