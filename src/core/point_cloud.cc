@@ -1,6 +1,8 @@
 #include "core/point_cloud.h"
 
 #include <atomic>
+#include <cmath>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -67,6 +69,7 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
   const float cx = static_cast<float>(k.cx);
   const float cy = static_cast<float>(k.cy);
   const Vec3f invalid{kInvalidDepth, kInvalidDepth, kInvalidDepth};
+  constexpr float kInf = std::numeric_limits<float>::infinity();
   // Branch-free per pixel: valid and invalid depths interleave along object edges.
   const size_t num_rows = h > 0 ? static_cast<size_t>(h) : 0;
   constexpr size_t kRowGrain = 32;
@@ -80,8 +83,11 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
       Vec3f* out = cloud->xyz.data() + row;
       for (int u = 0; u < w; ++u) {
         const float z = d[u] * 0.001f;
-        const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m);
         const Vec3f p{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
+        // Degenerate intrinsics (a zero focal length from a broken recording) give non-finite
+        // x or y: such points are invalid, as the segmenter's depth-range mask makes them.
+        const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m) & (std::fabs(p.x) < kInf) &
+                        (std::fabs(p.y) < kInf);
         out[u] = ok ? p : invalid;
         valid += ok ? 1u : 0u;
       }

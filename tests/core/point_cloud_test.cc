@@ -39,6 +39,17 @@ TEST(DepthToPointCloud, RangeLimitsInvalidate) {
   EXPECT_EQ(cloud.CountValid(), 0u);
 }
 
+TEST(DepthToPointCloud, DegenerateFocalLengthGivesNoValidPoint) {
+  CameraIntrinsics k;
+  k.fx = 0.0;  // unvalidated intrinsics of a broken recording: x = inf or NaN
+  DepthImage depth(640, 480, 1000);
+  PointCloud cloud;
+  EXPECT_EQ(DepthToPointCloud(depth, k, nullptr, &cloud), 0u);
+  EXPECT_EQ(cloud.CountValid(), 0u);
+  k.fx = 525.0;
+  EXPECT_EQ(DepthToPointCloud(depth, k, nullptr, &cloud), 640u * 480u);
+}
+
 TEST(DepthToPointCloud, PoolGivesTheSameCloud) {
   CameraIntrinsics k;
   DepthImage depth(640, 480, 0);
