@@ -2,7 +2,7 @@
 if(TARGET clutterseg_driver_openni2 AND TARGET clutterseg_driver_replay AND TARGET clutterseg_oni)
   add_executable(clutterseg-record ${CMAKE_CURRENT_LIST_DIR}/clutterseg_record.cc)
   target_link_libraries(clutterseg-record PRIVATE clutterseg::driver_openni2
-                        clutterseg::driver_replay clutterseg::oni PkgConfig::OPENNI2
+                        clutterseg::driver_replay clutterseg::oni clutterseg_openni2_headers
                         CLI11::CLI11 clutterseg_options)
 endif()
 

@@ -128,9 +128,13 @@ void OpenNI2SourceOptions::ValidateOrThrow() const {
   }
 }
 
-void InitializeOpenNI2() {
+void InitializeOpenNI2(OpenNI2Drivers drivers) {
   std::lock_guard<std::mutex> lock(g_openni_mutex);
   if (g_openni_initialized) return;
+  std::string error;
+  if (!internal::LoadOpenNI2Library(drivers, &error)) {
+    throw std::runtime_error("OpenNI2 initialization failed: " + error);
+  }
   const openni::Status rc = openni::OpenNI::initialize();
   if (rc != openni::STATUS_OK) {
     throw std::runtime_error("OpenNI2 initialization failed (status " +
@@ -138,6 +142,13 @@ void InitializeOpenNI2() {
   }
   PinOpenNI2Drivers();
   g_openni_initialized = true;
+}
+
+std::string DescribeOpenNI2() {
+  const std::string path = internal::LoadedOpenNI2Library();
+  if (path.empty()) return path;
+  return path +
+         (internal::OpenNI2LoadedForRecordingsOnly() ? " (OniFile driver only)" : " (all drivers)");
 }
 
 void ShutdownOpenNI2() {
@@ -253,6 +264,11 @@ struct OpenNI2Source::Impl {
   }
 
   void OpenLiveDevice() {
+    if (internal::OpenNI2LoadedForRecordingsOnly()) {
+      Fail(
+          "cannot open a live device: this process loaded OpenNI2 for recordings only, "
+          "without the camera drivers");
+    }
     if (!options.serial.empty()) {
       const std::vector<std::string> uris = LiveDeviceUris();
       std::string seen;

@@ -5,6 +5,7 @@
 
 #include "core/camera_intrinsics.h"
 #include "core/frame_source.h"
+#include "drivers/openni2/openni2_library.h"
 
 namespace clutterseg::drivers {
 
@@ -33,12 +34,19 @@ struct OpenNI2SourceOptions {
   void ValidateOrThrow() const;
 };
 
-/// Initializes OpenNI2 once per process; later calls do nothing. Thread-safe.
-/// Call it from main() before starting other threads: OpenNI::initialize() temporarily
-/// chdir()s the whole process into the OpenNI2 drivers directory, which breaks relative paths
-/// used concurrently by other threads. OpenNI2Source::Open() calls it too (harmless once done).
-/// @throws std::runtime_error with OpenNI2's extended error when initialization fails.
-void InitializeOpenNI2();
+/// Loads libOpenNI2 and initializes OpenNI2 once per process; later calls do nothing (the
+/// first call's `drivers` stays in force: with kRecordingsOnly no camera can be opened in this
+/// process). Thread-safe. Call it from main() before starting other threads:
+/// OpenNI::initialize() temporarily chdir()s the whole process into the OpenNI2 drivers
+/// directory, which breaks relative paths used concurrently by other threads.
+/// OpenNI2Source::Open() calls it with kAll (harmless once done).
+/// @throws std::runtime_error when libOpenNI2 cannot be loaded or initialized, with
+/// OpenNI2's extended error.
+void InitializeOpenNI2(OpenNI2Drivers drivers = OpenNI2Drivers::kAll);
+
+/// Where libOpenNI2 was loaded from and which drivers it sees, for logs: e.g.
+/// "/usr/lib/x86_64-linux-gnu/libOpenNI2.so.0 (all drivers)"; "" before InitializeOpenNI2().
+std::string DescribeOpenNI2();
 
 /// Shuts OpenNI2 down if InitializeOpenNI2() succeeded. Call once, at process exit, after
 /// every OpenNI2Source has been closed. Thread-safe.

@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "daemon/daemon.h"
+#include "daemon/log.h"
 
 #ifdef CLUTTERSEG_HAVE_OPENNI2
 #include "drivers/openni2/openni2_source.h"
@@ -128,7 +129,14 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
 void InitializeSourceDrivers(const config::DaemonConfig& config) {
 #ifdef CLUTTERSEG_HAVE_OPENNI2
   const SourceKind kind = ClassifySource(config.source);
-  if (kind == SourceKind::kDevice || kind == SourceKind::kOniFile) drivers::InitializeOpenNI2();
+  if (kind == SourceKind::kDevice || kind == SourceKind::kOniFile) {
+    // A recording needs only the OniFile driver: without the camera drivers' USB threads the
+    // daemon starts and stops faster (their shutdown alone takes 0.25-0.5 s).
+    drivers::InitializeOpenNI2(kind == SourceKind::kOniFile
+                                   ? drivers::OpenNI2Drivers::kRecordingsOnly
+                                   : drivers::OpenNI2Drivers::kAll);
+    Log(config::LogLevel::kDebug, "OpenNI2 loaded from " + drivers::DescribeOpenNI2());
+  }
 #else
   (void)config;
 #endif

@@ -12,6 +12,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <random>
 #include <string>
@@ -266,6 +267,31 @@ TEST_F(DaemonFault, MissingDeviceIsRefusedAtStart) {
   std::string err;
   EXPECT_EQ(RunOn(uri, Scratch("device.lcmlog"), &err), kExitSourceUnavailable) << err;
   EXPECT_NE(err.find("/dev/clutterseg-no-such-camera"), std::string::npos) << err;
+}
+
+// A recording is replayed with OpenNI2's OniFile driver alone: the camera drivers (and their
+// USB threads, whose shutdown takes 0.25-0.5 s) are never loaded.
+TEST_F(DaemonFault, ReplayLoadsOnlyTheRecordingDriver) {
+  const std::string log = Scratch("replay_drivers.lcmlog");
+  testutil::Child child =
+      testutil::Spawn({CLUTTERSEG_DAEMON_EXE, "--source", good_, "--speed", "realtime", "--loop",
+                       "--lcm-url", "file://" + log + "?mode=w", "--log-level", "debug"});
+  ASSERT_GT(child.pid, 0);
+  const std::string maps_path = "/proc/" + std::to_string(child.pid) + "/maps";
+  std::string maps;
+  for (int i = 0; i < 200 && maps.find("libOniFile.so") == std::string::npos; ++i) {
+    std::this_thread::sleep_for(milliseconds(25));
+    std::ifstream in(maps_path);
+    maps.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  EXPECT_NE(maps.find("/OpenNI2/Drivers/libOniFile.so"), std::string::npos);
+  EXPECT_EQ(maps.find("libPS1080.so"), std::string::npos);
+  EXPECT_EQ(maps.find("libPSLink.so"), std::string::npos);
+  EXPECT_EQ(maps.find("libusb"), std::string::npos);
+  ASSERT_EQ(kill(child.pid, SIGTERM), 0);
+  std::string err;
+  EXPECT_EQ(testutil::Wait(&child, seconds(20), &err), kExitOk) << err;
+  EXPECT_NE(err.find("OniFile driver only"), std::string::npos) << err;
 }
 
 // Frame data corrupted behind intact record headers: OniFile delivers the garbage as depth

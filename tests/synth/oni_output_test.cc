@@ -25,7 +25,7 @@ using testutil::RunSynthTool;
 // OpenNI2 is initialized once per process, before any test runs.
 class OpenNI2Environment : public ::testing::Environment {
  public:
-  void SetUp() override { drivers::InitializeOpenNI2(); }
+  void SetUp() override { drivers::InitializeOpenNI2(drivers::OpenNI2Drivers::kRecordingsOnly); }
   void TearDown() override { drivers::ShutdownOpenNI2(); }
 };
 [[maybe_unused]] ::testing::Environment* const kOpenNI2Env =
