@@ -21,6 +21,7 @@ constexpr uint64_t kFieldMask = (uint64_t{1} << kFieldBits) - 1;
 constexpr uint64_t kInvalidKey = ~uint64_t{0};
 constexpr size_t kBandPoints = 16384;
 constexpr size_t kVoxelGrain = 2048;
+constexpr size_t kMergeGrain = 8192;  // sorted band voxels per merge chunk
 
 // Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
 inline uint64_t PackKey(int32_t x, int32_t y, int32_t z) {
@@ -233,46 +234,72 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     std::fill_n(entry_band_.begin() + band_offset_[b], band.size, static_cast<uint32_t>(b));
   }
   SortByKey(num_entries);
-  grid->key.resize(num_entries);
-  grid->coord.resize(num_entries);
-  grid->num_points.resize(num_entries);
-  grid->point_sums.resize(9 * num_entries);
-  grid->centroid.resize(num_entries);
-  grid->mean_color.resize(with_color ? num_entries : 0);
-  size_t num_voxels = 0;
-  for (size_t k = 0; k < num_entries; ++k) {
-    const uint32_t e = sort_buf_[k].second;
-    const uint32_t b = entry_band_[e];
-    const size_t l = e - band_offset_[b];
-    const Band& band = bands_[b];
-    const uint64_t key = entry_key_[e];
-    if (num_voxels == 0 || grid->key[num_voxels - 1] != key) {
-      grid->key[num_voxels] = key;
-      grid->coord[num_voxels] = UnpackKey(key);
-      grid->num_points[num_voxels] = 0;
-      std::fill_n(&grid->point_sums[9 * num_voxels], 9, 0.0);
-      if (with_color) grid->mean_color[num_voxels] = core::Vec3f{};
-      ++num_voxels;
-    }
-    const size_t v = num_voxels - 1;
-    bands_[b].remap[l] = static_cast<uint32_t>(v);
-    grid->num_points[v] += band.count[l];
-    double* dst = &grid->point_sums[9 * v];
-    const double* src = &band.sums[9 * l];
-    for (int j = 0; j < 9; ++j) dst[j] += src[j];
-    if (with_color) {
-      core::Vec3f& m = grid->mean_color[v];
-      m.x += band.color[l].x;
-      m.y += band.color[l].y;
-      m.z += band.color[l].z;
-    }
+  // Each run of equal keys is one voxel. Chunks of whole runs are independent: their runs are
+  // counted, numbered by a prefix sum, and summed in parallel (the chunking depends only on
+  // the entries, so the result does not depend on the pool).
+  const size_t num_merge_chunks = core::ThreadPool::NumChunks(num_entries, kMergeGrain);
+  merge_begin_.resize(num_merge_chunks + 1);
+  merge_first_voxel_.resize(num_merge_chunks + 1);
+  merge_begin_[0] = 0;
+  for (size_t c = 1; c < num_merge_chunks; ++c) {
+    size_t b = std::max(c * kMergeGrain, merge_begin_[c - 1]);
+    while (b < num_entries && sort_buf_[b].first == sort_buf_[b - 1].first) ++b;
+    merge_begin_[c] = b;
   }
+  merge_begin_[num_merge_chunks] = num_entries;
+  ForChunks(pool, num_merge_chunks, 1, [&](size_t cb, size_t ce) {
+    for (size_t c = cb; c < ce; ++c) {
+      size_t runs = 0;
+      for (size_t k = merge_begin_[c]; k < merge_begin_[c + 1]; ++k) {
+        runs += k == merge_begin_[c] || sort_buf_[k].first != sort_buf_[k - 1].first ? 1 : 0;
+      }
+      merge_first_voxel_[c + 1] = runs;
+    }
+  });
+  merge_first_voxel_[0] = 0;
+  for (size_t c = 0; c < num_merge_chunks; ++c) {
+    merge_first_voxel_[c + 1] += merge_first_voxel_[c];
+  }
+  const size_t num_voxels = merge_first_voxel_[num_merge_chunks];
   grid->key.resize(num_voxels);
   grid->coord.resize(num_voxels);
   grid->num_points.resize(num_voxels);
   grid->point_sums.resize(9 * num_voxels);
   grid->centroid.resize(num_voxels);
   grid->mean_color.resize(with_color ? num_voxels : 0);
+  ForChunks(pool, num_merge_chunks, 1, [&](size_t cb, size_t ce) {
+    for (size_t c = cb; c < ce; ++c) {
+      size_t v = merge_first_voxel_[c];
+      for (size_t k = merge_begin_[c]; k < merge_begin_[c + 1]; ++k) {
+        const uint32_t e = sort_buf_[k].second;
+        const uint32_t b = entry_band_[e];
+        const size_t l = e - band_offset_[b];
+        const Band& band = bands_[b];
+        if (k > merge_begin_[c] && sort_buf_[k].first != sort_buf_[k - 1].first) ++v;
+        double* dst = &grid->point_sums[9 * v];
+        const double* src = &band.sums[9 * l];
+        if (k == merge_begin_[c] || sort_buf_[k].first != sort_buf_[k - 1].first) {
+          const uint64_t key = entry_key_[e];
+          grid->key[v] = key;
+          grid->coord[v] = UnpackKey(key);
+          grid->num_points[v] = band.count[l];
+          std::copy_n(src, 9, dst);
+          if (with_color) grid->mean_color[v] = band.color[l];
+        } else {
+          // Further bands of the same voxel, added in band order.
+          grid->num_points[v] += band.count[l];
+          for (int j = 0; j < 9; ++j) dst[j] += src[j];
+          if (with_color) {
+            core::Vec3f& m = grid->mean_color[v];
+            m.x += band.color[l].x;
+            m.y += band.color[l].y;
+            m.z += band.color[l].z;
+          }
+        }
+        bands_[b].remap[l] = static_cast<uint32_t>(v);
+      }
+    }
+  });
 
   // 3. Centroids and mean colours; points get their final voxel index.
   ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {

@@ -142,6 +142,10 @@ class Voxelizer {
   std::vector<uint32_t> entry_band_;
   std::vector<std::pair<uint64_t, uint32_t>> sort_buf_;  // (dense key, entry)
   std::vector<std::pair<uint64_t, uint32_t>> sort_tmp_;
+  // Merge chunks (whole runs of equal keys): first sorted entry and first voxel, with an end
+  // entry each.
+  std::vector<size_t> merge_begin_;
+  std::vector<size_t> merge_first_voxel_;
   // Columns of voxels sharing (x, y): packed (x, y) and first voxel; one extra end entry.
   std::vector<uint64_t> column_key_;
   std::vector<uint32_t> column_begin_;
