@@ -6,6 +6,10 @@
 #include <stdexcept>
 #include <utility>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 #include "core/assert.h"
 #include "geometry/moments.h"
 
@@ -35,47 +39,145 @@ inline VoxelCoord UnpackKey(uint64_t key) {
                     static_cast<int32_t>(key & kFieldMask) - kOffset};
 }
 
-// Floor of |q| < 2^20 without a libm call (no SSE4.1 rounding is assumed).
-inline int32_t FastFloor(float q) {
-  const int32_t i = static_cast<int32_t>(q);
-  return i - (static_cast<float>(i) > q ? 1 : 0);
+// Natural logarithm of 4 positive normal floats (other lanes give unspecified values):
+// z = m 2^e with m in [sqrt(1/2), sqrt(2)), ln m = 2 atanh(t) with t = (m - 1) / (m + 1),
+// |t| <= 0.172, by its series to t^9 (relative error below 1e-7, like logf). Every point,
+// quantised alone or in a block of four, goes through this same code, so equal depths always
+// get equal keys.
+#if defined(__SSE2__)
+using Float4 = __m128;
+inline Float4 Ln4(Float4 z) {
+  const __m128i bits = _mm_castps_si128(z);
+  __m128i e = _mm_sub_epi32(_mm_srli_epi32(bits, 23), _mm_set1_epi32(127));
+  __m128 m = _mm_castsi128_ps(
+      _mm_or_si128(_mm_and_si128(bits, _mm_set1_epi32(0x007fffff)), _mm_set1_epi32(0x3f800000)));
+  const __m128 big = _mm_cmpgt_ps(m, _mm_set1_ps(1.41421356f));
+  m = _mm_or_ps(_mm_and_ps(big, _mm_mul_ps(m, _mm_set1_ps(0.5f))), _mm_andnot_ps(big, m));
+  e = _mm_sub_epi32(e, _mm_castps_si128(big));  // big lanes are -1 as integers
+  const __m128 one = _mm_set1_ps(1.f);
+  const __m128 t = _mm_div_ps(_mm_sub_ps(m, one), _mm_add_ps(m, one));
+  const __m128 t2 = _mm_mul_ps(t, t);
+  __m128 poly = _mm_add_ps(_mm_mul_ps(t2, _mm_set1_ps(1.f / 9.f)), _mm_set1_ps(1.f / 7.f));
+  poly = _mm_add_ps(_mm_mul_ps(poly, t2), _mm_set1_ps(1.f / 5.f));
+  poly = _mm_add_ps(_mm_mul_ps(poly, t2), _mm_set1_ps(1.f / 3.f));
+  poly = _mm_add_ps(_mm_mul_ps(poly, t2), one);
+  const __m128 ln_m = _mm_mul_ps(_mm_mul_ps(_mm_set1_ps(2.f), t), poly);
+  return _mm_add_ps(_mm_mul_ps(_mm_cvtepi32_ps(e), _mm_set1_ps(0.693147181f)), ln_m);
 }
+#endif
 
-// Quantises a point; false for non-finite points, z <= 0 with the camera transform, depth
-// beyond max_depth_m (> 0), and coordinates outside the key range. NaN fails every
-// comparison, so no separate finiteness test is needed.
-// ln z of the last point: depth images repeat depths along rows, and the logarithm is the most
-// expensive part of quantising.
-struct LogCache {
-  float z{-1.f};
-  float scaled_log{0.f};
-};
-
-inline bool QuantizePoint(const core::Vec3f& p, bool camera, float inv_res, float max_depth_m,
-                          LogCache* cache, VoxelCoord* c) {
-  if (max_depth_m > 0.f && p.z > max_depth_m) return false;
-  float qx, qy, qz;
-  if (camera) {
-    if (!(p.z > 0.f)) return false;
-    const float inv_z = 1.0f / p.z;
-    qx = p.x * inv_z * inv_res;
-    qy = p.y * inv_z * inv_res;
-    if (p.z != cache->z) {
-      cache->z = p.z;
-      cache->scaled_log = std::log(p.z) * inv_res;
-    }
-    qz = cache->scaled_log;
-  } else {
-    qx = p.x * inv_res;
-    qy = p.y * inv_res;
-    qz = p.z * inv_res;
-  }
+// Packed keys of four points; kInvalidKey for non-finite points, z <= 0 with the camera
+// transform, depth beyond max_depth_m (> 0), and coordinates outside the key range. Floors are
+// exact for |q| < 2^20 (truncation, minus one where that rounded up).
+#if defined(__SSE2__)
+inline void QuantizeFour(__m128 vx, __m128 vy, __m128 vz, bool camera, float inv_res,
+                         float max_depth_m, uint64_t* keys) {
   constexpr float kLim = static_cast<float>(kCoordLimit);
-  if (!(std::fabs(qx) < kLim && std::fabs(qy) < kLim && std::fabs(qz) < kLim)) return false;
-  c->x = FastFloor(qx);
-  c->y = FastFloor(qy);
-  c->z = FastFloor(qz);
-  return true;
+  const __m128 res = _mm_set1_ps(inv_res);
+  __m128 qx, qy, qz, valid;
+  if (camera) {
+    const __m128 inv_z = _mm_div_ps(_mm_set1_ps(1.f), vz);
+    qx = _mm_mul_ps(_mm_mul_ps(vx, inv_z), res);
+    qy = _mm_mul_ps(_mm_mul_ps(vy, inv_z), res);
+    qz = _mm_mul_ps(Ln4(vz), res);
+    valid = _mm_cmpgt_ps(vz, _mm_setzero_ps());
+  } else {
+    qx = _mm_mul_ps(vx, res);
+    qy = _mm_mul_ps(vy, res);
+    qz = _mm_mul_ps(vz, res);
+    valid = _mm_castsi128_ps(_mm_set1_epi32(-1));
+  }
+  if (max_depth_m > 0.f) valid = _mm_andnot_ps(_mm_cmpgt_ps(vz, _mm_set1_ps(max_depth_m)), valid);
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  const __m128 lim = _mm_set1_ps(kLim);
+  valid = _mm_and_ps(valid, _mm_cmplt_ps(_mm_and_ps(qx, abs_mask), lim));
+  valid = _mm_and_ps(valid, _mm_cmplt_ps(_mm_and_ps(qy, abs_mask), lim));
+  valid = _mm_and_ps(valid, _mm_cmplt_ps(_mm_and_ps(qz, abs_mask), lim));
+  const __m128i offset = _mm_set1_epi32(kOffset);
+  auto field = [&](__m128 q) {  // floor(q) + kOffset, non-negative
+    const __m128i t = _mm_cvttps_epi32(q);
+    return _mm_add_epi32(_mm_add_epi32(t, _mm_castps_si128(_mm_cmpgt_ps(_mm_cvtepi32_ps(t), q))),
+                         offset);
+  };
+  const __m128i fx = field(qx), fy = field(qy), fz = field(qz);
+  const __m128i zero = _mm_setzero_si128();
+  const __m128i vmask = _mm_castps_si128(valid);
+  // Two 64-bit keys per register: (x << 42) | (y << 21) | z, all ones where invalid.
+  auto pack = [&](__m128i x2, __m128i y2, __m128i z2, __m128i m2) {
+    const __m128i key = _mm_or_si128(
+        _mm_or_si128(_mm_slli_epi64(x2, 2 * kFieldBits), _mm_slli_epi64(y2, kFieldBits)), z2);
+    return _mm_or_si128(_mm_and_si128(m2, key), _mm_andnot_si128(m2, _mm_set1_epi32(-1)));
+  };
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(keys),
+                   pack(_mm_unpacklo_epi32(fx, zero), _mm_unpacklo_epi32(fy, zero),
+                        _mm_unpacklo_epi32(fz, zero), _mm_unpacklo_epi32(vmask, vmask)));
+  _mm_storeu_si128(reinterpret_cast<__m128i*>(keys + 2),
+                   pack(_mm_unpackhi_epi32(fx, zero), _mm_unpackhi_epi32(fy, zero),
+                        _mm_unpackhi_epi32(fz, zero), _mm_unpackhi_epi32(vmask, vmask)));
+}
+#endif
+
+// Keys of points [0, n) (see QuantizeFour): four at a time, the rest padded with invalid
+// points, so that a point's key never depends on its position.
+inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float inv_res,
+                           float max_depth_m, uint64_t* keys) {
+#if defined(__SSE2__)
+  size_t i = 0;
+  for (; i + 4 <= n; i += 4) {
+    // Four xyz triples (12 floats) to x, y, z registers.
+    const float* f = &p[i].x;
+    const __m128 a = _mm_loadu_ps(f);      // x0 y0 z0 x1
+    const __m128 b = _mm_loadu_ps(f + 4);  // y1 z1 x2 y2
+    const __m128 c = _mm_loadu_ps(f + 8);  // z2 x3 y3 z3
+    const __m128 x = _mm_shuffle_ps(a, _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2)),
+                                    _MM_SHUFFLE(2, 0, 3, 0));  // x0 x1 x2 x3
+    const __m128 y = _mm_shuffle_ps(_mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1)),
+                                    _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3)),
+                                    _MM_SHUFFLE(2, 0, 2, 0));  // y0 y1 y2 y3
+    const __m128 z = _mm_shuffle_ps(_mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2)),
+                                    _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0)),
+                                    _MM_SHUFFLE(2, 0, 2, 0));  // z0 z1 z2 z3
+    QuantizeFour(x, y, z, camera, inv_res, max_depth_m, keys + i);
+  }
+  if (i < n) {
+    float x[4] = {0.f, 0.f, 0.f, 0.f}, y[4] = {0.f, 0.f, 0.f, 0.f};
+    float z[4] = {-1.f, -1.f, -1.f, -1.f};
+    for (size_t k = 0; i + k < n; ++k) {
+      x[k] = p[i + k].x;
+      y[k] = p[i + k].y;
+      z[k] = p[i + k].z;
+    }
+    uint64_t tail[4];
+    QuantizeFour(_mm_loadu_ps(x), _mm_loadu_ps(y), _mm_loadu_ps(z), camera, inv_res, max_depth_m,
+                 tail);
+    std::copy_n(tail, n - i, keys + i);
+  }
+#else
+  constexpr float kLim = static_cast<float>(kCoordLimit);
+  for (size_t i = 0; i < n; ++i) {
+    const core::Vec3f& q = p[i];
+    float qx, qy, qz;
+    bool ok;
+    if (camera) {
+      const float inv_z = 1.f / q.z;
+      qx = q.x * inv_z * inv_res;
+      qy = q.y * inv_z * inv_res;
+      qz = std::log(q.z) * inv_res;
+      ok = q.z > 0.f;
+    } else {
+      qx = q.x * inv_res;
+      qy = q.y * inv_res;
+      qz = q.z * inv_res;
+      ok = true;
+    }
+    if (max_depth_m > 0.f && q.z > max_depth_m) ok = false;
+    ok = ok && std::fabs(qx) < kLim && std::fabs(qy) < kLim && std::fabs(qz) < kLim;
+    keys[i] =
+        ok ? PackKey(static_cast<int32_t>(std::floor(qx)), static_cast<int32_t>(std::floor(qy)),
+                     static_cast<int32_t>(std::floor(qz)))
+           : kInvalidKey;
+  }
+#endif
 }
 
 // Runs fn(begin, end) over [0, n) on the pool, or inline without one. Chunk boundaries depend
@@ -126,9 +228,12 @@ float Voxelizer::VoxelSizeAt(float z_m) const {
 }
 
 bool Voxelizer::Quantize(const core::Vec3f& p, VoxelCoord* c) const {
-  LogCache cache;
-  return QuantizePoint(p, params_.use_single_camera_transform, 1.0f / params_.voxel_resolution_m,
-                       params_.max_depth_m, &cache, c);
+  uint64_t key;
+  QuantizePoints(&p, 1, params_.use_single_camera_transform, 1.0f / params_.voxel_resolution_m,
+                 params_.max_depth_m, &key);
+  if (key == kInvalidKey) return false;
+  *c = UnpackKey(key);
+  return true;
 }
 
 void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
@@ -158,17 +263,14 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     const core::Vec3f* xyz = cloud.xyz.data();
     uint64_t* keys = pixel_key_.data();
     int32_t* point_voxel = grid->point_voxel.data();
-    VoxelCoord c;
-    LogCache log_cache;
+    QuantizePoints(xyz + begin, end - begin, camera, inv_res, max_depth, keys + begin);
     for (size_t i = begin; i < end; ++i) {
       const core::Vec3f& p = xyz[i];
-      if (!QuantizePoint(p, camera, inv_res, max_depth, &log_cache, &c)) {
-        keys[i] = kInvalidKey;
+      const uint64_t key = keys[i];
+      if (key == kInvalidKey) {
         point_voxel[i] = -1;
         continue;
       }
-      const uint64_t key = PackKey(c.x, c.y, c.z);
-      keys[i] = key;
       int32_t vox;
       if (i > begin && keys[i - 1] == key && (!organized || i % w != 0)) {
         vox = point_voxel[i - 1];

@@ -162,6 +162,34 @@ TEST(VoxelGrid, NegativeCoordinatesFloorAndTheCameraTransformScalesWithDepth) {
   EXPECT_FALSE(near_only.Quantize({0.f, 0.f, 1.01f}, &c));
 }
 
+// The camera transform's quantisation (its own vectorised logarithm) against a double
+// precision reference, over the depths a sensor delivers and beyond; a point may land on
+// either side only within float rounding of a cell boundary.
+TEST(VoxelGrid, CameraQuantisationMatchesADoublePrecisionReference) {
+  const double res = 0.0075;
+  Voxelizer camera(CameraSpace(static_cast<float>(res)));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> depth(0.05f, 40.f), slope(-0.7f, 0.7f);
+  int checked = 0;
+  for (int k = 0; k < 200000; ++k) {
+    const float z = depth(rng);
+    const core::Vec3f p{slope(rng) * z, slope(rng) * z, z};
+    VoxelCoord c;
+    ASSERT_TRUE(camera.Quantize(p, &c));
+    const double q[3] = {static_cast<double>(p.x) / p.z / res, static_cast<double>(p.y) / p.z / res,
+                         std::log(static_cast<double>(p.z)) / res};
+    const int32_t got[3] = {c.x, c.y, c.z};
+    for (int d = 0; d < 3; ++d) {
+      const double f = std::floor(q[d]);
+      if (q[d] - f < 1e-4 || f + 1 - q[d] < 1e-4) continue;  // within rounding of a boundary
+      EXPECT_EQ(got[d], static_cast<int32_t>(f))
+          << "axis " << d << " of (" << p.x << ", " << p.y << ", " << p.z << ")";
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 590000);
+}
+
 TEST(VoxelGrid, AdjacencyEqualsBruteForce26Neighbourhood) {
   for (uint32_t seed : {1u, 2u, 3u}) {
     for (bool camera : {false, true}) {
