@@ -707,15 +707,16 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
     }
     case PcdEncoding::kBinary: {
       out += "DATA binary\n";
-      out.reserve(out.size() + n * 20);
-      for (size_t i = 0; i < n; ++i) {
-        char point[20];
-        const uint32_t rgba = rgba_at(i);
-        const uint32_t label = label_at(i);
-        std::memcpy(point, &cloud.xyz[i], 12);
-        std::memcpy(point + 12, &rgba, 4);
-        std::memcpy(point + 16, &label, 4);
-        out.append(point, sizeof point);
+      const size_t header = out.size();
+      out.resize(header + n * 20);
+      char* dst = out.data() + header;
+      const bool has_rgba = !cloud.rgba.empty(), has_label = !cloud.label.empty();
+      for (size_t i = 0; i < n; ++i, dst += 20) {
+        const uint32_t rgba = has_rgba ? cloud.rgba[i] : 0xff000000u;
+        const uint32_t label = has_label ? cloud.label[i] : 0u;
+        std::memcpy(dst, &cloud.xyz[i], 12);
+        std::memcpy(dst + 12, &rgba, 4);
+        std::memcpy(dst + 16, &label, 4);
       }
       break;
     }
