@@ -385,7 +385,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
           grid->key[v] = key;
           grid->coord[v] = UnpackKey(key);
           grid->num_points[v] = band.count[l];
-          std::copy_n(src, 9, dst);
+          for (int j = 0; j < 9; ++j) dst[j] = src[j];
           if (with_color) grid->mean_color[v] = band.color[l];
         } else {
           // Further bands of the same voxel, added in band order.
