@@ -290,7 +290,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
           }
           band.key[count] = key;
           band.count[count] = 0;
-          std::fill_n(&band.sums[9 * count], 9, 0.0);
+          for (int j = 0; j < 9; ++j) band.sums[9 * count + j] = 0.0;
           band.color[count] = core::Vec3f{};
           ++count;
         }

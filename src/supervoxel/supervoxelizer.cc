@@ -204,15 +204,18 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
       const float disc = kPi * radius2 / (voxel * voxel);
       const double needed = std::ceil(static_cast<double>(params_.min_seed_occupancy * disc));
       const size_t target = needed <= 1.0 ? 1 : static_cast<size_t>(std::min(needed, 1e9));
-      queue.clear();
-      queue.push_back(seed);
+      // The queue is used up to `size` only and never shrinks (see FillOutput).
+      if (queue.empty()) queue.resize(64);
+      queue[0] = seed;
+      size_t size = 1;
       marks[seed] = 1;
-      for (size_t q = 0; q < queue.size() && queue.size() < target; ++q) {
+      for (size_t q = 0; q < size && size < target; ++q) {
         const uint32_t v = queue[q];
         // Branch-free, as in Grow: each neighbour is written, and kept when it joins.
         const uint32_t a_begin = grid_.adjacency_offsets[v], a_end = grid_.adjacency_offsets[v + 1];
-        size_t size = queue.size();
-        queue.resize(size + (a_end - a_begin));
+        if (queue.size() < size + (a_end - a_begin)) {
+          queue.resize(std::max(2 * queue.size(), size + (a_end - a_begin)));
+        }
         uint32_t* out = queue.data();
         for (uint32_t a = a_begin; a < a_end; ++a) {
           const uint32_t n = grid_.adjacency[a];
@@ -221,10 +224,9 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
           out[size] = n;
           size += join;
         }
-        queue.resize(size);
       }
-      for (uint32_t v : queue) marks[v] = 0;
-      candidate_keep_[k] = queue.size() >= target ? 1 : 0;
+      for (size_t q = 0; q < size; ++q) marks[queue[q]] = 0;
+      candidate_keep_[k] = size >= target ? 1 : 0;
     }
   });
 
@@ -526,13 +528,15 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
     // last_seen (reusing a chunk's uint32 scratch) holds, per supervoxel, the last s + 1 that
     // listed it as a neighbour.
     std::vector<uint32_t>& last_seen = chunk_queue_[b / kSvGrain];
+    // The list is used up to `size` only and never shrinks (no value-initialisation per
+    // voxel; the branch-free loop may write past the entries it keeps).
     std::vector<uint32_t>& list = chunk_list_[b / kSvGrain];
     last_seen.assign(num_sv, 0);
-    list.clear();
+    size_t size = 0;
     for (size_t s = b; s < e; ++s) {
       double* acc = &accum_[kStride * s];
-      std::fill_n(acc, kStride, 0.0);
-      const size_t list_begin = list.size();
+      for (size_t k = 0; k < kStride; ++k) acc[k] = 0.0;
+      const size_t list_begin = size;
       for (uint32_t m = member_offsets_[s]; m < member_offsets_[s + 1]; ++m) {
         const uint32_t v = members_[m];
         const double* ps = &grid_.point_sums[9 * static_cast<size_t>(v)];
@@ -542,8 +546,9 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
         // only when new (last_seen[s] is set too, which no other supervoxel's test reads as a
         // match).
         const uint32_t a_begin = grid_.adjacency_offsets[v], a_end = grid_.adjacency_offsets[v + 1];
-        size_t size = list.size();
-        list.resize(size + (a_end - a_begin));
+        if (list.size() < size + (a_end - a_begin)) {
+          list.resize(std::max(2 * list.size(), size + (a_end - a_begin)));
+        }
         uint32_t* dst = list.data();
         const uint32_t mark = static_cast<uint32_t>(s + 1);
         for (uint32_t a = a_begin; a < a_end; ++a) {
@@ -553,10 +558,10 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
           dst[size] = t;
           size += keep ? 1 : 0;
         }
-        list.resize(size);
       }
-      std::sort(list.begin() + static_cast<std::ptrdiff_t>(list_begin), list.end());
-      nbr_count_[s] = static_cast<uint32_t>(list.size() - list_begin);
+      std::sort(list.begin() + static_cast<std::ptrdiff_t>(list_begin),
+                list.begin() + static_cast<std::ptrdiff_t>(size));
+      nbr_count_[s] = static_cast<uint32_t>(size - list_begin);
     }
   });
   out->adjacency_offsets.resize(num_sv + 1);
@@ -566,9 +571,10 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
   }
   out->adjacency.resize(out->adjacency_offsets[num_sv]);
   for (size_t c = 0; c < num_sv_chunks; ++c) {
-    const std::vector<uint32_t>& list = chunk_list_[c];
-    std::copy(list.begin(), list.end(),
-              out->adjacency.begin() + out->adjacency_offsets[c * kSvGrain]);
+    const size_t first = c * kSvGrain, last = std::min(num_sv, first + kSvGrain);
+    const uint32_t begin = out->adjacency_offsets[first];
+    std::copy_n(chunk_list_[c].begin(), out->adjacency_offsets[last] - begin,
+                out->adjacency.begin() + begin);
   }
 
   out->centroid.resize(num_sv);
