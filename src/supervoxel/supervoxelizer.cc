@@ -133,7 +133,7 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* po
     Recenter();
     Grow(max_layers);
   }
-  EnforceConnectivity();
+  EnforceConnectivity(pool);
   AssignLeftovers();
   const Clock::time_point t5 = Clock::now();
 
@@ -382,35 +382,48 @@ void Supervoxelizer::Recenter() {
   }
 }
 
-void Supervoxelizer::EnforceConnectivity() {
+void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
   // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
   // seed and release the rest.
   // Branch-free breadth-first search: every neighbour is written to the queue, which keeps it
-  // only when it joins (the queue holds at most all voxels plus one neighbourhood).
+  // only when it joins. A search visits only its own supervoxel's voxels, so supervoxels are
+  // independent: chunks of them run in parallel, each marking voxels no other chunk touches.
   const size_t num_voxels = grid_.size();
+  const size_t num_sv = seed_.size();
   mark_.assign(num_voxels, 0);
-  if (component_.size() < num_voxels + 27) component_.resize(num_voxels + 27);
-  uint32_t* queue = component_.data();
-  uint8_t* mark = mark_.data();
+  const size_t grain = std::max<size_t>(64, (num_sv + kMaxSeedChunks - 1) / kMaxSeedChunks);
+  const size_t num_chunks = core::ThreadPool::NumChunks(num_sv, grain);
+  if (component_queue_.size() < num_chunks) component_queue_.resize(num_chunks);
   const int32_t* owner = owner_.data();
   const uint32_t* offsets = grid_.adjacency_offsets.data();
   const uint32_t* adjacency = grid_.adjacency.data();
-  for (size_t s = 0; s < seed_.size(); ++s) {
-    const int32_t label = static_cast<int32_t>(s);
-    size_t size = 1;
-    queue[0] = seed_[s];
-    mark[seed_[s]] = 1;
-    for (size_t q = 0; q < size; ++q) {
-      const uint32_t v = queue[q];
-      for (uint32_t a = offsets[v]; a < offsets[v + 1]; ++a) {
-        const uint32_t n = adjacency[a];
-        const uint8_t join = (mark[n] == 0) & (owner[n] == label);
-        mark[n] |= join;
-        queue[size] = n;
-        size += join;
+  ForChunks(pool, num_sv, grain, [&](size_t b, size_t e) {
+    // Used up to `size` only; room for one more neighbourhood is made before each visit.
+    std::vector<uint32_t>& queue = component_queue_[b / grain];
+    uint8_t* mark = mark_.data();
+    for (size_t s = b; s < e; ++s) {
+      const int32_t label = static_cast<int32_t>(s);
+      size_t size = 1;
+      if (queue.empty()) queue.resize(1024);
+      queue[0] = seed_[s];
+      mark[seed_[s]] = 1;
+      for (size_t q = 0; q < size; ++q) {
+        const uint32_t v = queue[q];
+        const uint32_t a_begin = offsets[v], a_end = offsets[v + 1];
+        if (queue.size() < size + (a_end - a_begin)) {
+          queue.resize(std::max(2 * queue.size(), size + (a_end - a_begin)));
+        }
+        uint32_t* out = queue.data();
+        for (uint32_t a = a_begin; a < a_end; ++a) {
+          const uint32_t n = adjacency[a];
+          const uint8_t join = (mark[n] == 0) & (owner[n] == label);
+          mark[n] |= join;
+          out[size] = n;
+          size += join;
+        }
       }
     }
-  }
+  });
   for (size_t v = 0; v < num_voxels; ++v) {
     if (!mark_[v]) owner_[v] = -1;
   }

@@ -78,7 +78,7 @@ class Supervoxelizer {
   void SelectSeeds(core::ThreadPool* pool);
   void Grow(int max_layers);
   void Recenter();
-  void EnforceConnectivity();
+  void EnforceConnectivity(core::ThreadPool* pool);
   void AssignLeftovers();
   void FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
   float Cost(uint32_t sv, uint32_t voxel) const;
@@ -127,7 +127,7 @@ class Supervoxelizer {
   std::vector<float> best_dist_;
   std::vector<uint32_t> queue_;
   std::vector<uint8_t> mark_;
-  std::vector<uint32_t> component_;  // EnforceConnectivity's queue, used up to a count
+  std::vector<std::vector<uint32_t>> component_queue_;  // EnforceConnectivity's, per chunk
   std::vector<int32_t> pending_;
 
   // Output: voxels grouped by supervoxel, neighbour lists per chunk of supervoxels.
