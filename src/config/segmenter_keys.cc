@@ -17,6 +17,7 @@ const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, normal_importance),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, use_single_camera_transform),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, refinement_iterations),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, growth_regions),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, min_seed_occupancy),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, max_depth_m),
 

@@ -42,6 +42,9 @@ void SupervoxelParams::ValidateOrThrow() const {
   if (refinement_iterations < 0 || refinement_iterations > 100) {
     Fail("refinement_iterations", refinement_iterations, "expected 0..100");
   }
+  if (growth_regions < 1 || growth_regions > 64) {
+    Fail("growth_regions", growth_regions, "expected 1..64");
+  }
   if (!(Finite(min_seed_occupancy) && min_seed_occupancy >= 0.f && min_seed_occupancy <= 1.f)) {
     Fail("min_seed_occupancy", min_seed_occupancy, "expected 0..1");
   }

@@ -18,6 +18,12 @@ struct SupervoxelParams {
   /// Seeds whose search volume holds fewer voxels than this fraction of a flat disc's are
   /// dropped (the disc's voxel count uses the voxel size at the seed's depth).
   float min_seed_occupancy{0.25f};
+  /// Supervoxels grow in this many strips of the image (ranges of voxel x, about equal voxel
+  /// counts), each on its own and in parallel: a supervoxel claims voxels of its own strip
+  /// only, so none straddles a strip border. 1 = one region (VCCS). The result depends on
+  /// this number, never on the number of threads. Two strips halve the growth stage's
+  /// latency on two cores with the same quality (mOSD, synthetic); see docs/method.md.
+  int growth_regions{2};
   /// Voxels farther than this from the camera are ignored, metres (0 = no limit).
   float max_depth_m{0.0f};
 

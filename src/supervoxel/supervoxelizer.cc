@@ -128,10 +128,11 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* po
     max_layers = static_cast<int>(
         std::clamp(std::ceil(1.8f * params_.seed_resolution_m / voxel), 1.f, 1000.f));
   }
-  Grow(max_layers);
+  SplitRegions();
+  Grow(max_layers, pool);
   for (int it = 0; it < params_.refinement_iterations; ++it) {
-    Recenter();
-    Grow(max_layers);
+    Recenter(pool);
+    Grow(max_layers, pool);
   }
   EnforceConnectivity(pool);
   AssignLeftovers();
@@ -252,17 +253,57 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   num_seeds_ = seed_.size();
 }
 
-void Supervoxelizer::Grow(int max_layers) {
+void Supervoxelizer::SplitRegions() {
+  // growth_regions strips of whole voxel columns' x (the image's columns under the camera
+  // transform), of about equal voxel counts; supervoxel ids ascend with their seed voxels
+  // (seed_ is sorted), so each region's supervoxels are a range too. The split depends on the
+  // grid only, never on the pool.
+  const size_t num_voxels = grid_.size();
+  const size_t num_regions =
+      std::max<size_t>(1, std::min<size_t>(static_cast<size_t>(params_.growth_regions),
+                                           std::max<size_t>(1, seed_.size())));
+  region_voxel_.assign(num_regions + 1, 0);
+  region_sv_.assign(num_regions + 1, 0);
+  for (size_t r = 1; r < num_regions; ++r) {
+    size_t v = std::max<size_t>(r * num_voxels / num_regions, region_voxel_[r - 1]);
+    while (v > 0 && v < num_voxels && grid_.coord[v].x == grid_.coord[v - 1].x) ++v;
+    region_voxel_[r] = static_cast<uint32_t>(v);
+    region_sv_[r] = static_cast<uint32_t>(
+        std::lower_bound(seed_.begin(), seed_.end(), static_cast<uint32_t>(v)) - seed_.begin());
+  }
+  region_voxel_[num_regions] = static_cast<uint32_t>(num_voxels);
+  region_sv_[num_regions] = static_cast<uint32_t>(seed_.size());
+  if (grow_frontier_.size() < num_regions) grow_frontier_.resize(num_regions);
+  if (grow_next_.size() < num_regions) grow_next_.resize(num_regions);
+}
+
+void Supervoxelizer::Grow(int max_layers, core::ThreadPool* pool) {
   const size_t num_voxels = grid_.size();
   claim_.assign(num_voxels, Claim{-1, kInf});
+  const size_t num_regions = region_voxel_.size() - 1;
+  ForChunks(pool, num_regions, 1, [&](size_t b, size_t e) {
+    for (size_t r = b; r < e; ++r) GrowRegion(r, max_layers);
+  });
+  owner_.resize(num_voxels);
+  for (size_t v = 0; v < num_voxels; ++v) owner_[v] = claim_[v].owner;
+}
+
+void Supervoxelizer::GrowRegion(size_t r, int max_layers) {
+  // The region's voxels are [lo, lo + span), its supervoxels [region_sv_[r], region_sv_[r + 1]);
+  // only its own voxels are read or claimed, so regions grow independently.
+  const uint32_t lo = region_voxel_[r];
+  const uint32_t span = region_voxel_[r + 1] - lo;
+  const size_t sv_begin = region_sv_[r], sv_end = region_sv_[r + 1];
+  std::vector<std::pair<uint32_t, uint32_t>>& frontier = grow_frontier_[r];
+  std::vector<std::pair<uint32_t, uint32_t>>& next_buf = grow_next_[r];
   Claim* claim = claim_.data();
   // The frontiers are used up to their counts only, so that they never shrink and the
   // branch-free loop below may write past the last entry it keeps.
-  size_t frontier_size = seed_.size();
-  if (grow_frontier_.size() < frontier_size) grow_frontier_.resize(frontier_size);
-  for (size_t s = 0; s < seed_.size(); ++s) {
+  size_t frontier_size = sv_end - sv_begin;
+  if (frontier.size() < frontier_size) frontier.resize(frontier_size);
+  for (size_t s = sv_begin; s < sv_end; ++s) {
     claim[seed_[s]] = Claim{static_cast<int32_t>(s), 0.f};
-    grow_frontier_[s] = {static_cast<uint32_t>(s), seed_[s]};
+    frontier[s - sv_begin] = {static_cast<uint32_t>(s), seed_[s]};
   }
   // One layer at a time, all supervoxels in turn (the frontier stays grouped by supervoxel in
   // ascending order). A voxel goes to whoever reaches it most cheaply; a supervoxel that loses
@@ -277,17 +318,18 @@ void Supervoxelizer::Grow(int max_layers) {
   for (int layer = 0; layer < max_layers && frontier_size > 0; ++layer) {
     size_t next_size = 0;
     for (size_t f = 0; f < frontier_size; ++f) {
-      const auto [s, v] = grow_frontier_[f];
+      const auto [s, v] = frontier[f];
       const int32_t label = static_cast<int32_t>(s);
       if (claim[v].owner != label) continue;
       const uint32_t begin = offsets[v], end = offsets[v + 1];
-      if (grow_next_.size() < next_size + (end - begin)) {
-        grow_next_.resize(std::max(2 * grow_next_.size(), next_size + (end - begin)));
+      if (next_buf.size() < next_size + (end - begin)) {
+        next_buf.resize(std::max(2 * next_buf.size(), next_size + (end - begin)));
       }
-      std::pair<uint32_t, uint32_t>* next = grow_next_.data();
+      std::pair<uint32_t, uint32_t>* next = next_buf.data();
       if (use_color) {
         for (uint32_t a = begin; a < end; ++a) {
           const uint32_t n = adjacency[a];
+          if (n - lo >= span) continue;
           Claim& cl = claim[n];
           if (cl.owner == label) continue;
           const float c = Cost(s, n);
@@ -300,38 +342,49 @@ void Supervoxelizer::Grow(int max_layers) {
       // Without colour the loop is branch-free: which neighbours a supervoxel takes is data
       // dependent and mispredicts. A voxel the supervoxel already holds has exactly the cost
       // recomputed here (same centre, same voxel; 0 for the seed, which no cost undercuts), so
-      // "strictly cheaper" alone also skips the supervoxel's own voxels.
+      // "strictly cheaper" alone also skips the supervoxel's own voxels. A neighbour outside
+      // the region reads and rewrites v's own claim instead, unchanged.
       const core::Vec3f cx = centre_xyz_[s];
       const core::Vec3f cn = centre_normal_[s];
       for (uint32_t a = begin; a < end; ++a) {
         const uint32_t n = adjacency[a];
-        const Claim cl = claim[n];
+        const bool inside = n - lo < span;
+        const uint32_t m = inside ? n : v;
+        const Claim cl = claim[m];
         const VoxelFeature& fe = feature[n];
         const float dn = 1.f - std::fabs(Dot(fe.normal, cn));
         const float c = ws * Dist2(fe.centroid, cx) + wn * dn * dn;
         // Unclaimed voxels cost infinity, so one comparison covers both cases.
-        const bool take = c < cl.cost;
-        claim[n] = take ? Claim{label, c} : cl;
+        const bool take = inside & (c < cl.cost);
+        claim[m] = take ? Claim{label, c} : cl;
         next[next_size] = {s, n};
         next_size += take ? 1 : 0;
       }
     }
-    grow_frontier_.swap(grow_next_);
+    frontier.swap(next_buf);
     frontier_size = next_size;
     // Both buffers keep the larger size, so that which one a layer writes never matters for
     // allocation (none once the largest frame has been seen).
-    if (grow_next_.size() < grow_frontier_.size()) grow_next_.resize(grow_frontier_.size());
+    if (next_buf.size() < frontier.size()) next_buf.resize(frontier.size());
   }
-  owner_.resize(num_voxels);
-  for (size_t v = 0; v < num_voxels; ++v) owner_[v] = claim[v].owner;
 }
 
-void Supervoxelizer::Recenter() {
+void Supervoxelizer::Recenter(core::ThreadPool* pool) {
   const size_t num_sv = seed_.size();
-  const size_t num_voxels = grid_.size();
   constexpr size_t kStride = 10;
   accum_.assign(kStride * num_sv, 0.0);
-  for (size_t v = 0; v < num_voxels; ++v) {
+  best_dist_.assign(num_sv, kInf);
+  // A region's voxels belong to its own supervoxels only: regions are independent.
+  const size_t num_regions = region_voxel_.size() - 1;
+  ForChunks(pool, num_regions, 1, [&](size_t rb, size_t re) {
+    for (size_t r = rb; r < re; ++r) RecenterRegion(r);
+  });
+}
+
+void Supervoxelizer::RecenterRegion(size_t r) {
+  constexpr size_t kStride = 10;
+  const size_t v_begin = region_voxel_[r], v_end = region_voxel_[r + 1];
+  for (size_t v = v_begin; v < v_end; ++v) {
     const int32_t s = owner_[v];
     if (s < 0) continue;
     double* a = &accum_[kStride * static_cast<size_t>(s)];
@@ -352,7 +405,7 @@ void Supervoxelizer::Recenter() {
       a[9] += w * col.z;
     }
   }
-  for (size_t s = 0; s < num_sv; ++s) {
+  for (size_t s = region_sv_[r]; s < region_sv_[r + 1]; ++s) {
     const double* a = &accum_[kStride * s];
     CLUTTERSEG_DEMAND(a[0] > 0.0);  // a supervoxel always keeps its seed
     const double inv = 1.0 / a[0];
@@ -369,9 +422,8 @@ void Supervoxelizer::Recenter() {
                                      static_cast<float>(a[9] * inv)};
     }
   }
-  // The new seed is the member voxel nearest the centre.
-  best_dist_.assign(num_sv, kInf);
-  for (size_t v = 0; v < num_voxels; ++v) {
+  // The new seed is the member voxel nearest the centre (it stays in the region).
+  for (size_t v = v_begin; v < v_end; ++v) {
     const int32_t s = owner_[v];
     if (s < 0) continue;
     const float d = Dist2(grid_.centroid[v], centre_xyz_[static_cast<size_t>(s)]);

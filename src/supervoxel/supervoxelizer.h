@@ -76,8 +76,11 @@ class Supervoxelizer {
 
  private:
   void SelectSeeds(core::ThreadPool* pool);
-  void Grow(int max_layers);
-  void Recenter();
+  void SplitRegions();
+  void Grow(int max_layers, core::ThreadPool* pool);
+  void GrowRegion(size_t r, int max_layers);
+  void Recenter(core::ThreadPool* pool);
+  void RecenterRegion(size_t r);
   void EnforceConnectivity(core::ThreadPool* pool);
   void AssignLeftovers();
   void FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
@@ -120,9 +123,13 @@ class Supervoxelizer {
   std::vector<int32_t> owner_;
   std::vector<std::pair<uint32_t, uint32_t>> frontier_;
   std::vector<std::pair<uint32_t, uint32_t>> next_frontier_;
-  // Grow's frontiers, used up to a count (they never shrink).
-  std::vector<std::pair<uint32_t, uint32_t>> grow_frontier_;
-  std::vector<std::pair<uint32_t, uint32_t>> grow_next_;
+  // Growth regions: voxels [region_voxel_[r], region_voxel_[r + 1]) and supervoxels
+  // [region_sv_[r], region_sv_[r + 1]); one more entry than regions.
+  std::vector<uint32_t> region_voxel_;
+  std::vector<uint32_t> region_sv_;
+  // Grow's frontiers per region, used up to a count (they never shrink).
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> grow_frontier_;
+  std::vector<std::vector<std::pair<uint32_t, uint32_t>>> grow_next_;
   std::vector<double> accum_;
   std::vector<float> best_dist_;
   std::vector<uint32_t> queue_;
