@@ -119,6 +119,9 @@ TEST(SupervoxelParams, ValidateRejectsBadValuesNamingTheKey) {
   p.refinement_iterations = -1;
   EXPECT_NE(message(p).find("refinement_iterations"), std::string::npos);
   p = {};
+  p.growth_regions = 0;
+  EXPECT_NE(message(p).find("growth_regions"), std::string::npos);
+  p = {};
   p.max_depth_m = std::nanf("");
   EXPECT_NE(message(p).find("max_depth_m"), std::string::npos);
   p = {};
@@ -309,15 +312,51 @@ TEST(Supervoxelizer, SupervoxelsDoNotStraddleBoxEdges) {
 TEST(Supervoxelizer, OutputIsIdenticalForAnyPoolSize) {
   const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 3.0);
   for (bool camera_transform : {true, false}) {
-    SupervoxelParams params;
-    params.use_single_camera_transform = camera_transform;
-    params.color_importance = 0.5f;
-    const Supervoxels reference = Segment(scene.cloud, params, nullptr);
-    for (int threads : {1, 2, 3}) {
-      core::ThreadPool pool(threads);
-      SCOPED_TRACE(::testing::Message() << threads << " threads, transform " << camera_transform);
-      ExpectSameOutput(reference, Segment(scene.cloud, params, &pool));
+    for (float color : {0.f, 0.5f}) {
+      for (int regions : {1, 2, 3}) {
+        SupervoxelParams params;
+        params.use_single_camera_transform = camera_transform;
+        params.color_importance = color;
+        params.growth_regions = regions;
+        const Supervoxels reference = Segment(scene.cloud, params, nullptr);
+        for (int threads : {1, 2, 3}) {
+          core::ThreadPool pool(threads);
+          SCOPED_TRACE(::testing::Message()
+                       << threads << " threads, transform " << camera_transform << ", colour "
+                       << color << ", " << regions << " growth regions");
+          ExpectSameOutput(reference, Segment(scene.cloud, params, &pool));
+        }
+      }
     }
+  }
+}
+
+// Growth strips change where supervoxel borders fall, not what they respect: on the table
+// scene every strip count keeps supervoxels on one box or the table.
+TEST(Supervoxelizer, GrowthStripsKeepSupervoxelsPure) {
+  const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 0.0);
+  for (int regions : {1, 2, 4}) {
+    SupervoxelParams params;
+    params.growth_regions = regions;
+    const Supervoxels sv = Segment(scene.cloud, params, nullptr);
+    ASSERT_GT(sv.size(), 50u);
+    // Majority surface of each supervoxel among its points.
+    std::vector<std::map<int, int>> votes(sv.size());
+    for (size_t i = 0; i < sv.pixel_label.size(); ++i) {
+      const int surface = scene.surface[i];
+      const int object = surface <= 0 ? surface : 1 + (surface - 1) / 6;  // table, or a box
+      if (sv.pixel_label[i] >= 0) ++votes[static_cast<size_t>(sv.pixel_label[i])][object];
+    }
+    int impure = 0;
+    for (const auto& v : votes) {
+      int total = 0, best = 0;
+      for (const auto& [surface, count] : v) {
+        total += count;
+        best = std::max(best, count);
+      }
+      impure += best < 0.9 * total ? 1 : 0;
+    }
+    EXPECT_LE(impure, static_cast<int>(sv.size()) / 50) << regions << " growth regions";
   }
 }
 
