@@ -230,12 +230,8 @@ struct OpenNI2Source::Impl {
   uint64_t sequence{0};
   int last_depth_index{0};
   int64_t last_timestamp_us{0};  // of the last frame emitted
-  int64_t last_period_us{0};     // recorded frame period, from the last two frames emitted
-  // Replay timeline at a real-time speed (PaceReplay).
-  bool paced{false};
-  Clock::time_point anchor_time{};
-  int64_t anchor_ts{0};
-  Clock::time_point last_due{};
+  int64_t last_period_us{0};     // between the last two consecutive frames emitted
+  Clock::time_point last_emit{};
   core::CameraIntrinsics intr;
   openni::PixelFormat depth_format{openni::PIXEL_FORMAT_DEPTH_1_MM};
   std::string description;
@@ -548,51 +544,35 @@ struct OpenNI2Source::Impl {
     }
   }
 
-  // At a real-time speed frames are delivered on the recording's timeline: frame k is due
-  // (ts_k - ts_a) / speed after an anchor frame a, and a frame that arrives early is held
-  // until it is due (never past `deadline`). A frame that arrives late moves the anchor to
-  // itself, so the timeline follows the player and delays never accumulate. OniFile starts
-  // the next pass of a looped recording one frame early (its first frames would follow the
-  // last one at once: two in flight once per pass); the first frame of a pass is due one
-  // recorded period after the last frame of the previous one.
+  // At a real-time speed a frame is never delivered sooner after the previous one than their
+  // recorded timestamps are apart (scaled by the speed), as a camera would deliver them.
+  // OniFile itself starts the next pass of a looped recording without waiting: its first two
+  // frames would follow the last one at once (two frames in flight, once per pass). A rewound
+  // frame is spaced by the last recorded period. Never waits past `deadline`.
   void PaceReplay(Clock::time_point deadline) {
-    if (!file || options.replay_speed <= 0) return;
+    if (!file || options.replay_speed <= 0 || sequence == 0) return;
     const int64_t ts = static_cast<int64_t>(depth_frame.getTimestamp());
-    const Clock::time_point now = Clock::now();
-    auto scaled = [&](int64_t us) {
-      return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::micro>(
-          static_cast<double>(us) / options.replay_speed));
-    };
-    if (!paced) {
-      paced = true;
-      anchor_time = last_due = now;
-      anchor_ts = ts;
-      return;
-    }
-    if (depth_frame.getFrameIndex() <= last_depth_index || ts <= last_timestamp_us) {
-      anchor_time = last_due + scaled(last_period_us);
-      anchor_ts = ts;
-    }
-    Clock::time_point due = anchor_time + scaled(ts - anchor_ts);
-    if (due <= now) {
-      anchor_time = due = now;
-      anchor_ts = ts;
-    }
-    last_due = due;
+    const bool consecutive =
+        depth_frame.getFrameIndex() > last_depth_index && ts > last_timestamp_us;
+    const int64_t period_us = consecutive ? ts - last_timestamp_us : last_period_us;
+    if (period_us <= 0) return;
+    const auto due = last_emit + std::chrono::microseconds(static_cast<int64_t>(
+                                     static_cast<double>(period_us) / options.replay_speed));
     const auto until = std::min(due, deadline);
-    for (auto t = Clock::now(); t < until && !stop_requested.load(); t = Clock::now()) {
+    for (auto now = Clock::now(); now < until && !stop_requested.load(); now = Clock::now()) {
       std::this_thread::sleep_for(
-          std::min<Clock::duration>(until - t, std::chrono::milliseconds(20)));
+          std::min<Clock::duration>(until - now, std::chrono::milliseconds(20)));
     }
   }
 
   void Emit(core::RgbdFrame* frame) {
     const int64_t timestamp_us = static_cast<int64_t>(depth_frame.getTimestamp());
-    const int index_step = depth_frame.getFrameIndex() - last_depth_index;
-    if (index_step > 0 && sequence > 0 && timestamp_us > last_timestamp_us) {
-      last_period_us = (timestamp_us - last_timestamp_us) / index_step;  // frames may be skipped
+    if (depth_frame.getFrameIndex() > last_depth_index && sequence > 0 &&
+        timestamp_us > last_timestamp_us) {
+      last_period_us = timestamp_us - last_timestamp_us;
     }
     last_timestamp_us = timestamp_us;
+    last_emit = Clock::now();
     frame->receive_utime = core::SteadyClockMicros();
     frame->utime = timestamp_us;
     frame->sequence = sequence++;
@@ -717,7 +697,6 @@ void OpenNI2Source::Open() {
   m.last_depth_index = 0;
   m.last_timestamp_us = 0;
   m.last_period_us = 0;
-  m.paced = false;
   m.sequence = 0;
   m.registered = false;
   m.error.clear();
