@@ -229,9 +229,6 @@ struct OpenNI2Source::Impl {
   bool end_reached{false};
   uint64_t sequence{0};
   int last_depth_index{0};
-  int64_t last_timestamp_us{0};  // of the last frame emitted
-  int64_t last_period_us{0};     // between the last two consecutive frames emitted
-  Clock::time_point last_emit{};
   core::CameraIntrinsics intr;
   openni::PixelFormat depth_format{openni::PIXEL_FORMAT_DEPTH_1_MM};
   std::string description;
@@ -544,37 +541,9 @@ struct OpenNI2Source::Impl {
     }
   }
 
-  // At a real-time speed a frame is never delivered sooner after the previous one than their
-  // recorded timestamps are apart (scaled by the speed), as a camera would deliver them.
-  // OniFile itself starts the next pass of a looped recording without waiting: its first two
-  // frames would follow the last one at once (two frames in flight, once per pass). A rewound
-  // frame is spaced by the last recorded period. Never waits past `deadline`.
-  void PaceReplay(Clock::time_point deadline) {
-    if (!file || options.replay_speed <= 0 || sequence == 0) return;
-    const int64_t ts = static_cast<int64_t>(depth_frame.getTimestamp());
-    const bool consecutive =
-        depth_frame.getFrameIndex() > last_depth_index && ts > last_timestamp_us;
-    const int64_t period_us = consecutive ? ts - last_timestamp_us : last_period_us;
-    if (period_us <= 0) return;
-    const auto due = last_emit + std::chrono::microseconds(static_cast<int64_t>(
-                                     static_cast<double>(period_us) / options.replay_speed));
-    const auto until = std::min(due, deadline);
-    for (auto now = Clock::now(); now < until && !stop_requested.load(); now = Clock::now()) {
-      std::this_thread::sleep_for(
-          std::min<Clock::duration>(until - now, std::chrono::milliseconds(20)));
-    }
-  }
-
   void Emit(core::RgbdFrame* frame) {
-    const int64_t timestamp_us = static_cast<int64_t>(depth_frame.getTimestamp());
-    if (depth_frame.getFrameIndex() > last_depth_index && sequence > 0 &&
-        timestamp_us > last_timestamp_us) {
-      last_period_us = timestamp_us - last_timestamp_us;
-    }
-    last_timestamp_us = timestamp_us;
-    last_emit = Clock::now();
     frame->receive_utime = core::SteadyClockMicros();
-    frame->utime = timestamp_us;
+    frame->utime = static_cast<int64_t>(depth_frame.getTimestamp());
     frame->sequence = sequence++;
     frame->camera_name = options.camera_name;
     CopyDepth(depth_frame, &frame->depth);
@@ -652,7 +621,6 @@ struct OpenNI2Source::Impl {
       }
       (ready == 0 ? have_depth : have_color) = true;
       if (!with_color) {
-        PaceReplay(deadline);
         Emit(frame);
         return core::ReadStatus::kOk;
       }
@@ -660,7 +628,6 @@ struct OpenNI2Source::Impl {
         const int di = depth_frame.getFrameIndex();
         const int ci = color_frame.getFrameIndex();
         if (di == ci) {
-          PaceReplay(deadline);
           Emit(frame);
           return core::ReadStatus::kOk;
         }
@@ -695,8 +662,6 @@ void OpenNI2Source::Open() {
   m.frame_count = -1;
   m.depth_frames_delivered = 0;
   m.last_depth_index = 0;
-  m.last_timestamp_us = 0;
-  m.last_period_us = 0;
   m.sequence = 0;
   m.registered = false;
   m.error.clear();

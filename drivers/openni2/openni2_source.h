@@ -65,11 +65,8 @@ void ShutdownOpenNI2();
 /// Replay: depth and colour are paired by frame index and the file is never seek()ed (the
 /// Debian build crashes on seek). Every wait is bounded, so a Read never blocks for longer
 /// than its timeout; the end of a recording gives kEndOfStream (from the frame count, the
-/// DEVICE_STATE_EOF event, or both). At a real-time speed no frame follows the previous one
-/// sooner than their recorded timestamps are apart (scaled by the speed), also across the
-/// restart of a looped recording, which OniFile alone delivers without a pause. Files are validated
-/// with OniReader before OpenNI2 sees them, so unfinalized, truncated or garbage files make Open()
-/// throw instead of hanging.
+/// DEVICE_STATE_EOF event, or both). Files are validated with OniReader before OpenNI2 sees
+/// them, so unfinalized, truncated or garbage files make Open() throw instead of hanging.
 ///
 /// Live: a device that goes away makes Read return kDisconnected; Close() and Open() again to
 /// reconnect.
