@@ -109,6 +109,9 @@ struct Daemon::Impl {
   std::mutex pipe_mutex;
   std::condition_variable pipe_cv;
   uint64_t assigned{0};  // (pipe) frames given to lanes
+  // (pipe) lane of the i-th frame assigned, at i % size (one entry per lane: a lane holds at
+  // most one frame or output).
+  std::vector<size_t> order;
   uint64_t consumed{0};  // (pipe) lane outputs taken by the publisher
   bool dispatch_done{false};
   bool lanes_exit{false};
@@ -309,7 +312,6 @@ struct Daemon::Impl {
   void DispatchLoop() {
     SetThreadName("cs-dispatch");
     try {
-      size_t k = 0;
       for (;;) {
         {
           std::lock_guard<std::mutex> lock(pipe_mutex);
@@ -326,16 +328,29 @@ struct Daemon::Impl {
           continue;
         }
         std::unique_lock<std::mutex> lock(pipe_mutex);
-        Lane& lane = *lanes[k];
-        pipe_cv.wait(lock, [&] {
+        // Latency first: the frame goes to the lowest free lane (its Segmenter's buffers are
+        // warm), and while another lane is segmenting it waits for that lane (which then has
+        // the pool to itself and finishes sooner) unless newer frames queue up behind it: then
+        // the lanes pipeline to keep up. Queue arrivals are not signalled, hence the short
+        // polls while a frame is held back.
+        size_t k = lanes.size();
+        for (;;) {
           ReleaseFinishedLocked();
-          return lane.frame == nullptr && !lane.output_ready;
-        });
-        lane.frame = frame;
+          k = lanes.size();
+          bool busy = false;
+          for (size_t l = lanes.size(); l-- > 0;) {
+            if (lanes[l]->frame == nullptr && !lanes[l]->output_ready) k = l;
+            busy = busy || lanes[l]->frame != nullptr;
+          }
+          const bool have_lane = k < lanes.size();
+          if (have_lane && (!busy || queue->size() > 0 || stop.load())) break;
+          pipe_cv.wait_for(lock, std::chrono::milliseconds(have_lane ? 1 : 100));
+        }
+        lanes[k]->frame = frame;
+        order[assigned % order.size()] = k;  // the publisher takes outputs in this order
         ++assigned;
         lock.unlock();
         pipe_cv.notify_all();
-        k = (k + 1) % lanes.size();
       }
     } catch (const std::exception& e) {
       Fail(std::string("dispatch failed: ") + e.what());
@@ -551,20 +566,22 @@ struct Daemon::Impl {
     const auto period =
         std::chrono::microseconds(static_cast<int64_t>(config.status_period_s * 1e6));
     auto next_status = Clock::now() + period;
-    size_t p = 0;
     for (;;) {
       Lane* ready = nullptr;
       bool done = false;
       {
         std::unique_lock<std::mutex> lock(pipe_mutex);
+        // The next output in frame order, once its lane has it.
+        auto next_ready = [&]() -> Lane* {
+          if (consumed == assigned) return nullptr;
+          Lane* l = lanes[order[consumed % order.size()]].get();
+          return l->output_ready ? l : nullptr;
+        };
         pipe_cv.wait_until(lock, next_status, [&] {
-          return lanes[p]->output_ready || (dispatch_done && consumed == assigned);
+          return next_ready() != nullptr || (dispatch_done && consumed == assigned);
         });
-        if (lanes[p]->output_ready) {
-          ready = lanes[p].get();
-        } else if (dispatch_done && consumed == assigned) {
-          done = true;
-        }
+        ready = next_ready();
+        if (ready == nullptr && dispatch_done && consumed == assigned) done = true;
       }
       if (ready != nullptr) {
         try {
@@ -580,7 +597,6 @@ struct Daemon::Impl {
           ++consumed;
         }
         pipe_cv.notify_all();
-        p = (p + 1) % lanes.size();
       }
       if (done) break;
       if (Clock::now() >= next_status) {
@@ -628,6 +644,7 @@ Daemon::Daemon(const config::DaemonConfig& config, std::unique_ptr<core::FrameSo
     lane->segmenter = std::make_unique<pipeline::Segmenter>(config.segmenter, d.pool.get());
     d.lanes.push_back(std::move(lane));
   }
+  d.order.assign(depth, 0);
 }
 
 Daemon::~Daemon() {
