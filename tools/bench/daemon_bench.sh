@@ -2,19 +2,22 @@
 # Measures the daemon end to end on .oni recordings: replay throughput at --speed max (frames
 # looped until N are published), capture-to-publish latency when fed at the recorded 30 Hz
 # (RT_FRAMES frames, looped), frames dropped, and peak RSS. Latency percentiles are over the
-# frames after the first WARMUP (default 5), whose work buffers are still growing. FPS counts
-# every published frame over the whole run, start-up included. Prints one Markdown table row
-# per recording and mode.
+# frames after the first WARMUP (default 30, one second: work buffers still growing and the
+# backlog of the slow first frames). FPS counts every published frame over the whole run,
+# start-up included. Prints one Markdown table row per recording and mode.
+# A looped recording restarts one frame early in OniFile (two frames in flight once per
+# pass): give the 30 Hz run a recording longer than WARMUP + RT_FRAMES to measure a camera's
+# steady state.
 # Usage: tools/bench/daemon_bench.sh [BUILD_DIR] [FRAMES] RECORDING.oni...
 #   BUILD_DIR defaults to build/release, FRAMES (published at speed max) to 600.
-# Make recordings with: clutterseg-synth --oni out.oni --count 90 --seed 101
+# Make recordings with: clutterseg-synth --oni out.oni --count 360 --seed 101
 #                       clutterseg-record --from-pcd ../shared/data/mosd-learn --fps 30 out.oni
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 build=${1:-build/release}
 frames=${2:-600}
 rt_frames=${RT_FRAMES:-300}  # frames published at the recorded 30 Hz
-warmup=${WARMUP:-5}          # first frames left out of the percentiles (buffers growing)
+warmup=${WARMUP:-30}         # first frames left out of the percentiles (start-up: buffers growing, first backlog)
 shift 2 || true
 daemon=$build/src/daemon/clutterseg
 listen=$build/tools/clutterseg-listen
