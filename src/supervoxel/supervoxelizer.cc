@@ -437,9 +437,9 @@ void Supervoxelizer::RecenterRegion(size_t r) {
 void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
   // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
   // seed and release the rest.
-  // Branch-free breadth-first search: every neighbour is written to the queue, which keeps it
-  // only when it joins. A search visits only its own supervoxel's voxels, so supervoxels are
-  // independent: chunks of them run in parallel, each marking voxels no other chunk touches.
+  // Breadth-first search over the supervoxel's own voxels (each is written to the queue, which
+  // keeps it only when it joins). A search reads and marks only its own supervoxel's voxels,
+  // so supervoxels are independent: chunks of them run in parallel.
   const size_t num_voxels = grid_.size();
   const size_t num_sv = seed_.size();
   mark_.assign(num_voxels, 0);
@@ -467,9 +467,12 @@ void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
         }
         uint32_t* out = queue.data();
         for (uint32_t a = a_begin; a < a_end; ++a) {
+          // Only the supervoxel's own voxels are read or written here: another chunk may be
+          // marking its neighbours' voxels at the same time.
           const uint32_t n = adjacency[a];
-          const uint8_t join = (mark[n] == 0) & (owner[n] == label);
-          mark[n] |= join;
+          if (owner[n] != label) continue;
+          const uint8_t join = mark[n] == 0;
+          mark[n] = 1;
           out[size] = n;
           size += join;
         }

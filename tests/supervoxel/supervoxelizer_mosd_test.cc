@@ -10,6 +10,7 @@
 #include "core/thread_pool.h"
 #include "io/pcd.h"
 #include "supervoxel/supervoxelizer.h"
+#include "tests/supervoxel/purity.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::supervoxel {
@@ -25,21 +26,10 @@ struct Quality {
 };
 
 Quality Measure(const core::PointCloud& cloud, const Supervoxels& sv) {
-  std::vector<std::unordered_map<uint32_t, uint32_t>> hist(sv.size());
-  size_t total = 0;
-  for (size_t i = 0; i < cloud.size(); ++i) {
-    if (sv.pixel_label[i] < 0) continue;
-    ++hist[static_cast<size_t>(sv.pixel_label[i])][Region(cloud.label[i])];
-    ++total;
-  }
-  size_t leaked = 0;
-  for (const auto& h : hist) {
-    uint32_t sum = 0, best = 0;
-    for (const auto& [region, count] : h) {
-      sum += count;
-      best = std::max(best, count);
-    }
-    leaked += sum - best;
+  size_t total = 0, leaked = 0;
+  for (const Purity& p : SupervoxelPurity(sv, [&](size_t i) { return Region(cloud.label[i]); })) {
+    total += p.total;
+    leaked += p.total - p.majority;
   }
   return {total > 0 ? static_cast<double>(leaked) / total : 0.0, sv.size()};
 }

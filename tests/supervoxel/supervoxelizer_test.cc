@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/thread_pool.h"
+#include "tests/supervoxel/purity.h"
 #include "tests/supervoxel/synthetic_scene.h"
 
 namespace clutterseg::supervoxel {
@@ -340,21 +341,13 @@ TEST(Supervoxelizer, GrowthStripsKeepSupervoxelsPure) {
     params.growth_regions = regions;
     const Supervoxels sv = Segment(scene.cloud, params, nullptr);
     ASSERT_GT(sv.size(), 50u);
-    // Majority surface of each supervoxel among its points.
-    std::vector<std::map<int, int>> votes(sv.size());
-    for (size_t i = 0; i < sv.pixel_label.size(); ++i) {
-      const int surface = scene.surface[i];
-      const int object = surface <= 0 ? surface : 1 + (surface - 1) / 6;  // table, or a box
-      if (sv.pixel_label[i] >= 0) ++votes[static_cast<size_t>(sv.pixel_label[i])][object];
-    }
+    // Majority object (the table, or a box) of each supervoxel among its points.
     int impure = 0;
-    for (const auto& v : votes) {
-      int total = 0, best = 0;
-      for (const auto& [surface, count] : v) {
-        total += count;
-        best = std::max(best, count);
-      }
-      impure += best < 0.9 * total ? 1 : 0;
+    for (const Purity& p : SupervoxelPurity(sv, [&](size_t i) {
+           const int surface = scene.surface[i];
+           return surface <= 0 ? surface : 1 + (surface - 1) / 6;
+         })) {
+      impure += static_cast<double>(p.majority) < 0.9 * static_cast<double>(p.total) ? 1 : 0;
     }
     EXPECT_LE(impure, static_cast<int>(sv.size()) / 50) << regions << " growth regions";
   }
