@@ -437,28 +437,33 @@ void Supervoxelizer::RecenterRegion(size_t r) {
 void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
   // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
   // seed and release the rest.
-  // Breadth-first search over the supervoxel's own voxels (each is written to the queue, which
-  // keeps it only when it joins). A search reads and marks only its own supervoxel's voxels,
-  // so supervoxels are independent: chunks of them run in parallel.
+  // Branch-free breadth-first search: every neighbour is written to the queue, which keeps it
+  // only when it joins. Supervoxels are independent, so chunks of them run in parallel; each
+  // chunk marks visits in scratch marks of its own (all zero between uses, as SelectSeeds
+  // leaves them) and then writes mark_ for its supervoxels' kept voxels only.
   const size_t num_voxels = grid_.size();
   const size_t num_sv = seed_.size();
   mark_.assign(num_voxels, 0);
   const size_t grain = std::max<size_t>(64, (num_sv + kMaxSeedChunks - 1) / kMaxSeedChunks);
   const size_t num_chunks = core::ThreadPool::NumChunks(num_sv, grain);
   if (component_queue_.size() < num_chunks) component_queue_.resize(num_chunks);
+  if (chunk_marks_.size() < num_chunks) chunk_marks_.resize(num_chunks);
+  for (size_t k = 0; k < num_chunks; ++k) {
+    if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
+  }
   const int32_t* owner = owner_.data();
   const uint32_t* offsets = grid_.adjacency_offsets.data();
   const uint32_t* adjacency = grid_.adjacency.data();
   ForChunks(pool, num_sv, grain, [&](size_t b, size_t e) {
     // Used up to `size` only; room for one more neighbourhood is made before each visit.
     std::vector<uint32_t>& queue = component_queue_[b / grain];
-    uint8_t* mark = mark_.data();
+    uint8_t* visited = chunk_marks_[b / grain].data();
     for (size_t s = b; s < e; ++s) {
       const int32_t label = static_cast<int32_t>(s);
       size_t size = 1;
       if (queue.empty()) queue.resize(1024);
       queue[0] = seed_[s];
-      mark[seed_[s]] = 1;
+      visited[seed_[s]] = 1;
       for (size_t q = 0; q < size; ++q) {
         const uint32_t v = queue[q];
         const uint32_t a_begin = offsets[v], a_end = offsets[v + 1];
@@ -467,15 +472,16 @@ void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
         }
         uint32_t* out = queue.data();
         for (uint32_t a = a_begin; a < a_end; ++a) {
-          // Only the supervoxel's own voxels are read or written here: another chunk may be
-          // marking its neighbours' voxels at the same time.
           const uint32_t n = adjacency[a];
-          if (owner[n] != label) continue;
-          const uint8_t join = mark[n] == 0;
-          mark[n] = 1;
+          const uint8_t join = (visited[n] == 0) & (owner[n] == label);
+          visited[n] |= join;
           out[size] = n;
           size += join;
         }
+      }
+      for (size_t q = 0; q < size; ++q) {
+        visited[queue[q]] = 0;
+        mark_[queue[q]] = 1;  // the supervoxel's own voxel: no other chunk writes it
       }
     }
   });

@@ -106,6 +106,8 @@ class Supervoxelizer {
   std::vector<float> cell_best_dist_;
   std::vector<uint32_t> candidates_;
   std::vector<uint8_t> candidate_keep_;
+  // Per chunk of work: visit marks over the voxels, all zero between uses (SelectSeeds,
+  // EnforceConnectivity).
   std::vector<std::vector<uint8_t>> chunk_marks_;
   std::vector<std::vector<uint32_t>> chunk_queue_;
 
