@@ -148,6 +148,15 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* po
   timings_.output_ms = Ms(t5, t6);
 }
 
+void Supervoxelizer::PrepareChunkScratch(size_t num_chunks) {
+  const size_t num_voxels = grid_.size();
+  if (chunk_queue_.size() < num_chunks) chunk_queue_.resize(num_chunks);
+  if (chunk_marks_.size() < num_chunks) chunk_marks_.resize(num_chunks);
+  for (size_t k = 0; k < num_chunks; ++k) {
+    if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
+  }
+}
+
 void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   const size_t num_voxels = grid_.size();
   const float cell = params_.seed_resolution_m;
@@ -185,12 +194,7 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   const size_t num_candidates = candidates_.size();
   candidate_keep_.assign(num_candidates, 0);
   const size_t grain = std::max<size_t>(64, (num_candidates + kMaxSeedChunks - 1) / kMaxSeedChunks);
-  const size_t num_chunks = core::ThreadPool::NumChunks(num_candidates, grain);
-  if (chunk_marks_.size() < num_chunks) chunk_marks_.resize(num_chunks);
-  if (chunk_queue_.size() < num_chunks) chunk_queue_.resize(num_chunks);
-  for (size_t k = 0; k < num_chunks; ++k) {
-    if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
-  }
+  PrepareChunkScratch(core::ThreadPool::NumChunks(num_candidates, grain));
   const float radius = 0.5f * params_.seed_resolution_m;
   const float radius2 = radius * radius;
   // The search stops as soon as the count is reached: only keep / drop is needed, and most
@@ -445,18 +449,13 @@ void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
   const size_t num_sv = seed_.size();
   mark_.assign(num_voxels, 0);
   const size_t grain = std::max<size_t>(64, (num_sv + kMaxSeedChunks - 1) / kMaxSeedChunks);
-  const size_t num_chunks = core::ThreadPool::NumChunks(num_sv, grain);
-  if (component_queue_.size() < num_chunks) component_queue_.resize(num_chunks);
-  if (chunk_marks_.size() < num_chunks) chunk_marks_.resize(num_chunks);
-  for (size_t k = 0; k < num_chunks; ++k) {
-    if (chunk_marks_[k].size() < num_voxels) chunk_marks_[k].resize(num_voxels, 0);
-  }
+  PrepareChunkScratch(core::ThreadPool::NumChunks(num_sv, grain));
   const int32_t* owner = owner_.data();
   const uint32_t* offsets = grid_.adjacency_offsets.data();
   const uint32_t* adjacency = grid_.adjacency.data();
   ForChunks(pool, num_sv, grain, [&](size_t b, size_t e) {
     // Used up to `size` only; room for one more neighbourhood is made before each visit.
-    std::vector<uint32_t>& queue = component_queue_[b / grain];
+    std::vector<uint32_t>& queue = chunk_queue_[b / grain];
     uint8_t* visited = chunk_marks_[b / grain].data();
     for (size_t s = b; s < e; ++s) {
       const int32_t label = static_cast<int32_t>(s);

@@ -75,6 +75,8 @@ class Supervoxelizer {
   const SupervoxelTimings& timings() const { return timings_; }
 
  private:
+  // Sizes chunk_queue_ and chunk_marks_ for `num_chunks` chunks over the current voxels.
+  void PrepareChunkScratch(size_t num_chunks);
   void SelectSeeds(core::ThreadPool* pool);
   void SplitRegions();
   void Grow(int max_layers, core::ThreadPool* pool);
@@ -106,8 +108,8 @@ class Supervoxelizer {
   std::vector<float> cell_best_dist_;
   std::vector<uint32_t> candidates_;
   std::vector<uint8_t> candidate_keep_;
-  // Per chunk of work: visit marks over the voxels, all zero between uses (SelectSeeds,
-  // EnforceConnectivity).
+  // Per chunk of work: visit marks over the voxels, all zero between uses, and a queue used up
+  // to a count (SelectSeeds, EnforceConnectivity; FillOutput reuses the queues as scratch).
   std::vector<std::vector<uint8_t>> chunk_marks_;
   std::vector<std::vector<uint32_t>> chunk_queue_;
 
@@ -136,7 +138,6 @@ class Supervoxelizer {
   std::vector<float> best_dist_;
   std::vector<uint32_t> queue_;
   std::vector<uint8_t> mark_;
-  std::vector<std::vector<uint32_t>> component_queue_;  // EnforceConnectivity's, per chunk
   std::vector<int32_t> pending_;
 
   // Output: voxels grouped by supervoxel, neighbour lists per chunk of supervoxels.
