@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -224,6 +225,55 @@ TEST_F(SegmenterTest, ProcessDepthEqualsBackProjectionThenProcess) {
       EXPECT_EQ(result.objects[k].centroid.x, reference.objects[k].centroid.x);
       EXPECT_EQ(result.objects[k].mean_color.r, reference.objects[k].mean_color.r);
       EXPECT_EQ(result.objects[k].mean_color.g, reference.objects[k].mean_color.g);
+    }
+  }
+}
+
+// The working cloud keeps exactly the finite points within the depth range, bit for bit, for
+// point counts that do not fill the four-point blocks evenly and for every kind of
+// non-finite coordinate.
+TEST_F(SegmenterTest, WorkingCloudKeepsExactlyTheFinitePointsInTheDepthRange) {
+  constexpr float kInf = std::numeric_limits<float>::infinity();
+  const float specials[] = {
+      std::numeric_limits<float>::quiet_NaN(), kInf, -kInf, 0.f, -0.f, 1e-30f, 1e30f};
+  params_.objects.min_depth_m = 0.5f;
+  params_.objects.max_depth_m = 3.f;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> coord(-1.f, 1.f), depth(0.f, 4.f);
+  std::uniform_int_distribution<int> pick(0, 20);
+  for (int width : {1, 3, 4, 7, 64, 129}) {
+    core::PointCloud cloud;
+    cloud.width = width;
+    cloud.height = 5;
+    cloud.xyz.resize(static_cast<size_t>(width) * 5);
+    size_t expected = 0;
+    for (core::Vec3f& p : cloud.xyz) {
+      p = {coord(rng), coord(rng), depth(rng)};
+      float* f = &p.x;
+      for (int k = 0; k < 3; ++k) {
+        const int r = pick(rng);
+        if (r < 7) f[k] = specials[r];
+      }
+      expected += std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) && p.z >= 0.5f &&
+                  p.z <= 3.f;
+    }
+    Segmenter dut(params_);
+    SegmentationResult result;
+    dut.Process(cloud, core::DefaultKinectIntrinsics(), &result);
+    EXPECT_EQ(result.num_valid_points, expected) << width;
+    const core::PointCloud& work = dut.working_cloud();
+    ASSERT_EQ(work.xyz.size(), cloud.xyz.size());
+    for (size_t i = 0; i < cloud.xyz.size(); ++i) {
+      const core::Vec3f& p = cloud.xyz[i];
+      const bool keep = std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z) &&
+                        p.z >= 0.5f && p.z <= 3.f;
+      if (keep) {
+        EXPECT_EQ(std::memcmp(&work.xyz[i], &p, sizeof p), 0) << width << " point " << i;
+      } else {
+        EXPECT_TRUE(std::isnan(work.xyz[i].x) && std::isnan(work.xyz[i].y) &&
+                    std::isnan(work.xyz[i].z))
+            << width << " point " << i;
+      }
     }
   }
 }
