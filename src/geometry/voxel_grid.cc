@@ -6,11 +6,8 @@
 #include <stdexcept>
 #include <utility>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
 #include "core/assert.h"
+#include "core/simd_points.h"
 #include "geometry/moments.h"
 
 namespace clutterseg::geometry {
@@ -124,20 +121,8 @@ inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float in
 #if defined(__SSE2__)
   size_t i = 0;
   for (; i + 4 <= n; i += 4) {
-    // Four xyz triples (12 floats) to x, y, z registers.
-    const float* f = &p[i].x;
-    const __m128 a = _mm_loadu_ps(f);      // x0 y0 z0 x1
-    const __m128 b = _mm_loadu_ps(f + 4);  // y1 z1 x2 y2
-    const __m128 c = _mm_loadu_ps(f + 8);  // z2 x3 y3 z3
-    const __m128 x = _mm_shuffle_ps(a, _mm_shuffle_ps(b, c, _MM_SHUFFLE(1, 1, 2, 2)),
-                                    _MM_SHUFFLE(2, 0, 3, 0));  // x0 x1 x2 x3
-    const __m128 y = _mm_shuffle_ps(_mm_shuffle_ps(a, b, _MM_SHUFFLE(0, 0, 1, 1)),
-                                    _mm_shuffle_ps(b, c, _MM_SHUFFLE(2, 2, 3, 3)),
-                                    _MM_SHUFFLE(2, 0, 2, 0));  // y0 y1 y2 y3
-    const __m128 z = _mm_shuffle_ps(_mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2)),
-                                    _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0)),
-                                    _MM_SHUFFLE(2, 0, 2, 0));  // z0 z1 z2 z3
-    QuantizeFour(x, y, z, camera, inv_res, max_depth_m, keys + i);
+    const core::FourPoints four = core::LoadFourPoints(p + i);
+    QuantizeFour(four.x, four.y, four.z, camera, inv_res, max_depth_m, keys + i);
   }
   if (i < n) {
     float x[4] = {0.f, 0.f, 0.f, 0.f}, y[4] = {0.f, 0.f, 0.f, 0.f};

@@ -7,10 +7,7 @@
 #include <numeric>
 #include <vector>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
-
+#include "core/simd_points.h"
 #include "core/thread_pool.h"
 #include "graph/linkage.h"
 #include "graph/patch_features.h"
@@ -40,40 +37,19 @@ uint32_t RestrictToDepthRange(const core::Vec3f* src, core::Vec3f* dst, size_t n
   uint32_t valid = 0;
   size_t i = 0;
 #if defined(__SSE2__)
-  // Four points (12 floats) at a time: the validity of each point from its x, y, z lanes, then
-  // spread back over the point's three floats.
+  // Four points at a time.
   const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
   const __m128 inf = _mm_set1_ps(kInf), lo = _mm_set1_ps(zmin), hi = _mm_set1_ps(zmax);
   const __m128 nan = _mm_set1_ps(core::kInvalidDepth);
   for (; i + 4 <= n; i += 4) {
-    const float* f = &src[i].x;
-    const __m128 a = _mm_loadu_ps(f);      // x0 y0 z0 x1
-    const __m128 b = _mm_loadu_ps(f + 4);  // y1 z1 x2 y2
-    const __m128 c = _mm_loadu_ps(f + 8);  // z2 x3 y3 z3
-    // Finite: every float of the point below infinity in magnitude.
-    const __m128 fa = _mm_cmplt_ps(_mm_and_ps(a, abs_mask), inf);
-    const __m128 fb = _mm_cmplt_ps(_mm_and_ps(b, abs_mask), inf);
-    const __m128 fc = _mm_cmplt_ps(_mm_and_ps(c, abs_mask), inf);
-    // Per point: the three lanes of each point gathered, x y z in lanes of four vectors.
-    const __m128 fx = _mm_shuffle_ps(fa, _mm_shuffle_ps(fb, fc, _MM_SHUFFLE(1, 1, 2, 2)),
-                                     _MM_SHUFFLE(2, 0, 3, 0));
-    const __m128 fy =
-        _mm_shuffle_ps(_mm_shuffle_ps(fa, fb, _MM_SHUFFLE(0, 0, 1, 1)),
-                       _mm_shuffle_ps(fb, fc, _MM_SHUFFLE(2, 2, 3, 3)), _MM_SHUFFLE(2, 0, 2, 0));
-    const __m128 z =
-        _mm_shuffle_ps(_mm_shuffle_ps(a, b, _MM_SHUFFLE(1, 1, 2, 2)),
-                       _mm_shuffle_ps(c, c, _MM_SHUFFLE(3, 3, 0, 0)), _MM_SHUFFLE(2, 0, 2, 0));
-    const __m128 fz = _mm_cmplt_ps(_mm_and_ps(z, abs_mask), inf);
-    const __m128 m = _mm_and_ps(_mm_and_ps(_mm_and_ps(fx, fy), fz),
-                                _mm_and_ps(_mm_cmpge_ps(z, lo), _mm_cmple_ps(z, hi)));
-    valid += static_cast<uint32_t>(__builtin_popcount(_mm_movemask_ps(m)));
-    const __m128 ma = _mm_shuffle_ps(m, m, _MM_SHUFFLE(1, 0, 0, 0));
-    const __m128 mb = _mm_shuffle_ps(m, m, _MM_SHUFFLE(2, 2, 1, 1));
-    const __m128 mc = _mm_shuffle_ps(m, m, _MM_SHUFFLE(3, 3, 3, 2));
-    float* o = &dst[i].x;
-    _mm_storeu_ps(o, _mm_or_ps(_mm_and_ps(ma, a), _mm_andnot_ps(ma, nan)));
-    _mm_storeu_ps(o + 4, _mm_or_ps(_mm_and_ps(mb, b), _mm_andnot_ps(mb, nan)));
-    _mm_storeu_ps(o + 8, _mm_or_ps(_mm_and_ps(mc, c), _mm_andnot_ps(mc, nan)));
+    const core::FourPoints p = core::LoadFourPoints(src + i);
+    const __m128 finite = _mm_and_ps(_mm_and_ps(_mm_cmplt_ps(_mm_and_ps(p.x, abs_mask), inf),
+                                                _mm_cmplt_ps(_mm_and_ps(p.y, abs_mask), inf)),
+                                     _mm_cmplt_ps(_mm_and_ps(p.z, abs_mask), inf));
+    const __m128 keep =
+        _mm_and_ps(finite, _mm_and_ps(_mm_cmpge_ps(p.z, lo), _mm_cmple_ps(p.z, hi)));
+    valid += static_cast<uint32_t>(__builtin_popcount(_mm_movemask_ps(keep)));
+    core::StoreFourPointsWhere(keep, p, nan, dst + i);
   }
 #endif
   for (; i < n; ++i) {
