@@ -104,25 +104,26 @@ void WriteObjectsJson(const std::string& path, const std::string& source,
 
 bool IsPng(const fs::path& p) { return p.extension() == ".png" || p.extension() == ".PNG"; }
 
-core::PointCloud LoadInput(const fs::path& in, const Options& opt,
-                           core::CameraIntrinsics* intrinsics) {
+// Loads `in` into `cloud`, reusing its storage (a PCD after another allocates nothing).
+void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
+               core::CameraIntrinsics* intrinsics) {
   if (IsPng(in)) {
     *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
                                               : io::ReadIntrinsicsJson(opt.intrinsics_file);
-    return io::ReadDepthPngCloud(in.string(), *intrinsics, opt.color_png, opt.depth_scale_to_mm);
+    *cloud = io::ReadDepthPngCloud(in.string(), *intrinsics, opt.color_png, opt.depth_scale_to_mm);
+    return;
   }
-  core::PointCloud cloud = io::ReadPcd(in.string());
-  if (!cloud.organized()) {
+  io::ReadPcd(in.string(), io::ReadLimits{}, cloud);
+  if (!cloud->organized()) {
     throw std::runtime_error(in.string() +
                              ": the cloud is not organized (HEIGHT 1); clutterseg-segment needs an "
                              "organized depth image layout");
   }
   *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
                                             : io::ReadIntrinsicsJson(opt.intrinsics_file);
-  if (intrinsics->width != cloud.width || intrinsics->height != cloud.height) {
-    *intrinsics = intrinsics->Scaled(cloud.width, cloud.height);
+  if (intrinsics->width != cloud->width || intrinsics->height != cloud->height) {
+    *intrinsics = intrinsics->Scaled(cloud->width, cloud->height);
   }
-  return cloud;
 }
 
 }  // namespace
@@ -233,6 +234,7 @@ int main(int argc, char** argv) {
     explicit Lane(const pipeline::SegmenterParams& p, core::ThreadPool* pool)
         : segmenter(p, pool) {}
     pipeline::Segmenter segmenter;
+    core::PointCloud cloud;
     pipeline::SegmentationResult result;
     core::ColorImage base, overlay;
   };
@@ -264,7 +266,8 @@ int main(int argc, char** argv) {
       Report rep;
       try {
         core::CameraIntrinsics k;
-        core::PointCloud cloud = LoadInput(job.in, opt, &k);
+        core::PointCloud& cloud = lane->cloud;
+        LoadInput(job.in, opt, &cloud, &k);
         pipeline::SegmentationResult& result = lane->result;
         lane->segmenter.Process(cloud, k, &result);
         rep.ms = result.times.total_ms;

@@ -5,39 +5,59 @@
 
 namespace clutterseg::geometry {
 
-void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]) {
+namespace {
+
+// Smallest root of the characteristic polynomial f(l) = det(A - l I) by Newton's method from
+// l = 0: A is positive semi-definite, so 0 <= l3 and f is decreasing and convex left of l3;
+// the iterates rise monotonically to it. Nearly flat patches (l3 << l2) converge in two or
+// three steps. Work on B = A / trace, whose eigenvalues lie in [0, 1]: f(l) = -l^3 + l^2 -
+// m2 l + m3. Convergence is quadratic, so after a step below 1e-6 l the error is near
+// 1e-12 l: stopping there instead of waiting for a step at rounding level saves one
+// iteration of about five (segmentations of the mOSD and synthetic test frames unchanged).
+// At a repeated root, where convergence is linear, either eigenvector of the pair is valid.
+struct CharPoly {
+  double trace{0.0};
+  double m2{0.0};  // second and third invariants of B
+  double m3{0.0};
+};
+
+CharPoly CharacteristicPolynomial(const double c[6]) {
   const double a00 = c[0], a01 = c[1], a02 = c[2], a11 = c[3], a12 = c[4], a22 = c[5];
-  // Smallest root of the characteristic polynomial f(l) = det(A - l I) by Newton's method
-  // from l = 0: A is positive semi-definite, so 0 <= l3 and f is decreasing and convex left of
-  // l3; the iterates rise monotonically to it. Nearly flat patches (l3 << l2) converge in
-  // two or three steps. Work on A / trace, whose eigenvalues lie in [0, 1]. Convergence is
-  // quadratic, so after a step below 1e-6 l the error is near 1e-12 l: stopping there instead
-  // of waiting for a step at rounding level saves one iteration of about five (segmentations
-  // of the mOSD and synthetic test frames unchanged). At a repeated root, where convergence
-  // is linear, either eigenvector of the pair is valid.
-  const double trace = a00 + a11 + a22;
+  CharPoly p;
+  p.trace = a00 + a11 + a22;
+  if (!(p.trace > 0.0)) return p;
+  const double s = 1.0 / p.trace;
+  const double b00 = a00 * s, b01 = a01 * s, b02 = a02 * s, b11 = a11 * s, b12 = a12 * s,
+               b22 = a22 * s;
+  p.m2 = b00 * b11 - b01 * b01 + b00 * b22 - b02 * b02 + b11 * b22 - b12 * b12;
+  p.m3 =
+      b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02);
+  return p;
+}
+
+// One Newton step on root estimate *l; returns whether another step is needed.
+inline bool NewtonStep(const CharPoly& p, double* l) {
+  const double f = ((-*l + 1.0) * *l - p.m2) * *l + p.m3;
+  const double df = (-3.0 * *l + 2.0) * *l - p.m2;
+  if (!(df < 0.0)) return false;  // at a repeated root (or rounding past it)
+  const double step = f / df;
+  *l -= step;
+  return std::fabs(step) > 1e-6 * (*l + 1e-12);
+}
+
+constexpr int kMaxNewtonSteps = 60;
+
+// Eigenvalues from the smallest root `l` of B's polynomial, and the eigenvector.
+void FinishEigen(const double c[6], const CharPoly& p, double l, double vec[3],
+                 double eigenvalues[3]) {
+  const double a00 = c[0], a01 = c[1], a02 = c[2], a11 = c[3], a12 = c[4], a22 = c[5];
+  const double trace = p.trace;
   double l1 = 0.0, l2 = 0.0, l3 = 0.0;
   if (trace > 0.0) {
-    const double s = 1.0 / trace;
-    const double b00 = a00 * s, b01 = a01 * s, b02 = a02 * s, b11 = a11 * s, b12 = a12 * s,
-                 b22 = a22 * s;
-    // f(l) = -l^3 + l^2 - m2 l + m3 (the trace of B is 1).
-    const double m2 = b00 * b11 - b01 * b01 + b00 * b22 - b02 * b02 + b11 * b22 - b12 * b12;
-    const double m3 = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) +
-                      b02 * (b01 * b12 - b11 * b02);
-    double l = 0.0;
-    for (int it = 0; it < 60; ++it) {
-      const double f = ((-l + 1.0) * l - m2) * l + m3;
-      const double df = (-3.0 * l + 2.0) * l - m2;
-      if (!(df < 0.0)) break;  // at a repeated root (or rounding past it)
-      const double step = f / df;
-      l -= step;
-      if (!(std::fabs(step) > 1e-6 * (l + 1e-12))) break;
-    }
     l = std::clamp(l, 0.0, 1.0 / 3.0);
     // The other two: l1 + l2 = 1 - l3 and l1 l2 = m2 - l3 (l1 + l2).
     const double sum = 1.0 - l;
-    const double prod = std::max(0.0, m2 - l * sum);
+    const double prod = std::max(0.0, p.m2 - l * sum);
     const double disc = std::sqrt(std::max(0.0, sum * sum - 4.0 * prod));
     l1 = 0.5 * (sum + disc) * trace;
     l2 = std::max(0.5 * (sum - disc), l) * trace;
@@ -97,6 +117,46 @@ void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]
   vec[0] = o[0] * s;
   vec[1] = o[1] * s;
   vec[2] = o[2] * s;
+}
+
+}  // namespace
+
+void SmallestEigenvector(const double c[6], double vec[3], double eigenvalues[3]) {
+  const CharPoly p = CharacteristicPolynomial(c);
+  double l = 0.0;
+  if (p.trace > 0.0) {
+    for (int it = 0; it < kMaxNewtonSteps && NewtonStep(p, &l); ++it) {
+    }
+  }
+  FinishEigen(c, p, l, vec, eigenvalues);
+}
+
+void SmallestEigenvectors(size_t n, const double (*c)[6], double (*vec)[3],
+                          double (*eigenvalues)[3]) {
+  // Groups of matrices iterate side by side: their Newton steps are independent chains of
+  // dependent divisions, which the processor overlaps. Each matrix takes exactly the steps it
+  // takes alone.
+  constexpr size_t kGroup = 4;
+  for (size_t g = 0; g < n; g += kGroup) {
+    const size_t m = std::min(kGroup, n - g);
+    CharPoly p[kGroup];
+    double l[kGroup] = {0.0, 0.0, 0.0, 0.0};
+    bool active[kGroup] = {false, false, false, false};
+    for (size_t k = 0; k < m; ++k) {
+      p[k] = CharacteristicPolynomial(c[g + k]);
+      active[k] = p[k].trace > 0.0;
+    }
+    for (int it = 0; it < kMaxNewtonSteps; ++it) {
+      bool any = false;
+      for (size_t k = 0; k < m; ++k) {
+        if (active[k]) active[k] = NewtonStep(p[k], &l[k]);
+        any = any || active[k];
+      }
+      if (!any) break;
+    }
+    for (size_t k = 0; k < m; ++k)
+      FinishEigen(c[g + k], p[k], l[k], vec[g + k], eigenvalues[g + k]);
+  }
 }
 
 void MomentsCovariance(const double* m, double mean[3], double cov[6]) {

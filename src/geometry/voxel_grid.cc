@@ -571,54 +571,71 @@ void Voxelizer::ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const {
   grid->normal.resize(num_voxels);
   grid->curvature.resize(num_voxels);
   ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
-    for (size_t v = b; v < e; ++v) {
-      const core::Vec3f& c0 = grid->centroid[v];
-      const uint32_t begin = grid->adjacency_offsets[v];
-      const uint32_t end = grid->adjacency_offsets[v + 1];
-      if (end - begin < 2) {
-        const float len = std::sqrt(c0.x * c0.x + c0.y * c0.y + c0.z * c0.z);
-        grid->normal[v] = len > 0.f ? core::Vec3f{-c0.x / len, -c0.y / len, -c0.z / len}
-                                    : core::Vec3f{0.f, 0.f, -1.f};
-        grid->curvature[v] = 1.0f / 3.0f;
-        continue;
+    // Covariances of a block of voxels first, then their eigen-analyses together.
+    constexpr size_t kBlock = 64;
+    double cov[kBlock][6], nrm[kBlock][3], l[kBlock][3];
+    uint32_t block_voxel[kBlock];
+    for (size_t block = b; block < e; block += kBlock) {
+      size_t count = 0;
+      for (size_t v = block; v < std::min(e, block + kBlock); ++v) {
+        const core::Vec3f& c0 = grid->centroid[v];
+        const uint32_t begin = grid->adjacency_offsets[v];
+        const uint32_t end = grid->adjacency_offsets[v + 1];
+        if (end - begin < 2) {
+          const float len = std::sqrt(c0.x * c0.x + c0.y * c0.y + c0.z * c0.z);
+          grid->normal[v] = len > 0.f ? core::Vec3f{-c0.x / len, -c0.y / len, -c0.z / len}
+                                      : core::Vec3f{0.f, 0.f, -1.f};
+          grid->curvature[v] = 1.0f / 3.0f;
+          continue;
+        }
+        // Weighted moments relative to the voxel's own centroid, so that single precision is
+        // accurate (offsets are a few voxels).
+        float w_sum = static_cast<float>(grid->num_points[v]);
+        float m[3] = {0.f, 0.f, 0.f};
+        float s[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
+        for (uint32_t k = begin; k < end; ++k) {
+          const uint32_t j = grid->adjacency[k];
+          const core::Vec3f& c = grid->centroid[j];
+          const float w = static_cast<float>(grid->num_points[j]);
+          const float dx = c.x - c0.x, dy = c.y - c0.y, dz = c.z - c0.z;
+          const float wx = w * dx, wy = w * dy, wz = w * dz;
+          w_sum += w;
+          m[0] += wx;
+          m[1] += wy;
+          m[2] += wz;
+          s[0] += wx * dx;
+          s[1] += wx * dy;
+          s[2] += wx * dz;
+          s[3] += wy * dy;
+          s[4] += wy * dz;
+          s[5] += wz * dz;
+        }
+        const float inv = 1.0f / w_sum;
+        const float mx = m[0] * inv, my = m[1] * inv, mz = m[2] * inv;
+        double* out = cov[count];
+        out[0] = s[0] * inv - mx * mx;
+        out[1] = s[1] * inv - mx * my;
+        out[2] = s[2] * inv - mx * mz;
+        out[3] = s[3] * inv - my * my;
+        out[4] = s[4] * inv - my * mz;
+        out[5] = s[5] * inv - mz * mz;
+        block_voxel[count++] = static_cast<uint32_t>(v);
       }
-      // Weighted moments relative to the voxel's own centroid, so that single precision is
-      // accurate (offsets are a few voxels).
-      float w_sum = static_cast<float>(grid->num_points[v]);
-      float m[3] = {0.f, 0.f, 0.f};
-      float s[6] = {0.f, 0.f, 0.f, 0.f, 0.f, 0.f};
-      for (uint32_t k = begin; k < end; ++k) {
-        const uint32_t j = grid->adjacency[k];
-        const core::Vec3f& c = grid->centroid[j];
-        const float w = static_cast<float>(grid->num_points[j]);
-        const float dx = c.x - c0.x, dy = c.y - c0.y, dz = c.z - c0.z;
-        const float wx = w * dx, wy = w * dy, wz = w * dz;
-        w_sum += w;
-        m[0] += wx;
-        m[1] += wy;
-        m[2] += wz;
-        s[0] += wx * dx;
-        s[1] += wx * dy;
-        s[2] += wx * dz;
-        s[3] += wy * dy;
-        s[4] += wy * dz;
-        s[5] += wz * dz;
+      SmallestEigenvectors(count, cov, nrm, l);
+      for (size_t k = 0; k < count; ++k) {
+        const uint32_t v = block_voxel[k];
+        const core::Vec3f& c0 = grid->centroid[v];
+        double* n = nrm[k];
+        if (n[0] * c0.x + n[1] * c0.y + n[2] * c0.z > 0.0) {
+          n[0] = -n[0];
+          n[1] = -n[1];
+          n[2] = -n[2];
+        }
+        grid->normal[v] = core::Vec3f{static_cast<float>(n[0]), static_cast<float>(n[1]),
+                                      static_cast<float>(n[2])};
+        const double total = l[k][0] + l[k][1] + l[k][2];
+        grid->curvature[v] = total > 0.0 ? static_cast<float>(l[k][2] / total) : 0.0f;
       }
-      const float inv = 1.0f / w_sum;
-      const float mx = m[0] * inv, my = m[1] * inv, mz = m[2] * inv;
-      const double cov[6] = {s[0] * inv - mx * mx, s[1] * inv - mx * my, s[2] * inv - mx * mz,
-                             s[3] * inv - my * my, s[4] * inv - my * mz, s[5] * inv - mz * mz};
-      double nrm[3], l[3];
-      SmallestEigenvector(cov, nrm, l);
-      if (nrm[0] * c0.x + nrm[1] * c0.y + nrm[2] * c0.z > 0.0) {
-        nrm[0] = -nrm[0];
-        nrm[1] = -nrm[1];
-        nrm[2] = -nrm[2];
-      }
-      grid->normal[v] = core::Vec3f{static_cast<float>(nrm[0]), static_cast<float>(nrm[1]),
-                                    static_cast<float>(nrm[2])};
-      const double total = l[0] + l[1] + l[2];
-      grid->curvature[v] = total > 0.0 ? static_cast<float>(l[2] / total) : 0.0f;
     }
   });
 }

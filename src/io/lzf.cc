@@ -80,11 +80,69 @@ void LzfCompress(const void* in_bytes, size_t size, std::vector<uint8_t>* out) {
   flush_literals(size);
 }
 
+namespace {
+
+template <size_t N>
+inline void Copy(uint8_t* dst, const uint8_t* src) {
+  std::memcpy(dst, src, N);
+}
+
+// Decodes tokens while the next one cannot reach either end: the input holds a control byte
+// plus a full 32-byte literal run, and the output room for the longest back reference plus
+// the surplus of the chunked copies. Only the back-reference distance needs a check there.
+// Stops before a distance pointing before the start, which the checked decoder reports;
+// *ip_io and *op_io are advanced past the decoded tokens.
+void DecodeFast(const uint8_t* in, size_t in_size, uint8_t* out, size_t out_capacity, size_t* ip_io,
+                size_t* op_io) {
+  constexpr size_t kInSlack = 1 + kMaxLiteralRun + 2;
+  constexpr size_t kOutSlack = kMaxMatch + kChunk;
+  if (in_size < kInSlack || out_capacity < kOutSlack) return;
+  const uint8_t* ip = in + *ip_io;
+  uint8_t* op = out + *op_io;
+  const uint8_t* const ip_end = in + (in_size - kInSlack);
+  const uint8_t* const op_end = out + (out_capacity - kOutSlack);
+  while (ip < ip_end && op < op_end) {
+    const unsigned ctrl = *ip++;
+    if (ctrl < kMaxLiteralRun) {
+      // Fixed 32-byte copy; the surplus past the run is overwritten later.
+      Copy<2 * kChunk>(op, ip);
+      ip += ctrl + 1;
+      op += ctrl + 1;
+      continue;
+    }
+    size_t len = ctrl >> 5;
+    if (len == 7) len += *ip++;
+    const size_t offset = ((size_t{ctrl & 31u} << 8) | *ip++) + 1;
+    len += 2;
+    if (offset > static_cast<size_t>(op - out)) {
+      ip -= len >= 9 ? 3 : 2;  // back to the control byte
+      break;
+    }
+    const uint8_t* ref = op - offset;
+    if (offset >= kChunk) {
+      // Chunks never overlap their source; the surplus past `len` is overwritten later.
+      Copy<kChunk>(op, ref);
+      for (size_t k = kChunk; k < len; k += kChunk) Copy<kChunk>(op + k, ref + k);
+    } else if (offset >= 8) {
+      for (size_t k = 0; k < len; k += 8) Copy<8>(op + k, ref + k);
+    } else {
+      for (size_t k = 0; k < len; ++k) op[k] = ref[k];
+    }
+    op += len;
+  }
+  *ip_io = static_cast<size_t>(ip - in);
+  *op_io = static_cast<size_t>(op - out);
+}
+
+}  // namespace
+
 size_t LzfDecompress(const void* in_bytes, size_t in_size, void* out_bytes, size_t out_capacity) {
   const uint8_t* const in = static_cast<const uint8_t*>(in_bytes);
   uint8_t* const out = static_cast<uint8_t*>(out_bytes);
   size_t ip = 0;
   size_t op = 0;
+  // The bulk of the stream, then its last tokens (and any error) with every check.
+  DecodeFast(in, in_size, out, out_capacity, &ip, &op);
   while (ip < in_size) {
     const size_t token_start = ip;
     const unsigned ctrl = in[ip++];

@@ -1,6 +1,7 @@
 #include "io/pcd.h"
 
 #include <time.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <bit>
@@ -11,6 +12,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -155,6 +157,48 @@ INSTANTIATE_TEST_SUITE_P(AllEncodings, PcdRoundTripTest,
                            }
                            return std::string("BinaryCompressed");
                          });
+
+TEST_P(PcdRoundTripTest, OverwritesALargerFileExactly) {
+  // A 640x480 cloud (larger than the writer's block of points) first, then a small one to the
+  // same path: the file must hold exactly the second one, nothing of the first past its end.
+  const auto dir = testing::ScratchDir("pcd_overwrite");
+  const std::string path = (dir / "cloud.pcd").string();
+  const core::PointCloud big = MakeCloud(640, 480, true, true, 21);
+  WritePcd(path, big, GetParam());
+  const core::PointCloud back_big = ReadPcd(path);
+  ExpectSamePoints(big, back_big);
+  EXPECT_EQ(back_big.rgba, big.rgba);
+  EXPECT_EQ(back_big.label, big.label);
+  const core::PointCloud small = MakeCloud(5, 3, false, true, 22);
+  WritePcd(path, small, GetParam());
+  const std::string fresh = (dir / "fresh.pcd").string();
+  WritePcd(fresh, small, GetParam());
+  EXPECT_EQ(ReadFileBytes(path), ReadFileBytes(fresh));
+  const core::PointCloud back = ReadPcd(path);
+  ExpectSamePoints(small, back);
+  EXPECT_EQ(back.label, small.label);
+}
+
+TEST(PcdWriterTest, WritesToAPipe) {
+  // Not a regular file: nothing to cut to length, and no error for it.
+  const core::PointCloud cloud = MakeCloud(3, 2, true, true, 5);
+  int fds[2];
+  ASSERT_EQ(pipe(fds), 0);
+  std::string received;
+  std::thread reader([&] {
+    char buf[4096];
+    for (ssize_t n; (n = read(fds[0], buf, sizeof(buf))) > 0;)
+      received.append(buf, static_cast<size_t>(n));
+  });
+  const std::string fd_path = "/proc/self/fd/" + std::to_string(fds[1]);
+  EXPECT_NO_THROW(WritePcd(fd_path, cloud, PcdEncoding::kBinary));
+  close(fds[1]);
+  reader.join();
+  close(fds[0]);
+  const std::string path = (testing::ScratchDir("pcd_pipe") / "cloud.pcd").string();
+  WritePcd(path, cloud, PcdEncoding::kBinary);
+  EXPECT_EQ(received, ReadFileBytes(path));
+}
 
 TEST(PcdWriterTest, HeaderIsStandardV07) {
   const core::PointCloud cloud = MakeCloud(4, 2, true, true, 3);
