@@ -86,8 +86,8 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
         const Vec3f p{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
         // Degenerate intrinsics (a zero focal length from a broken recording) give non-finite
         // x or y: such points are invalid, as the segmenter's depth-range mask makes them.
-        const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m) & (std::fabs(p.x) < kInf) &
-                        (std::fabs(p.y) < kInf);
+        const float ax = std::fabs(p.x), ay = std::fabs(p.y);
+        const bool ok = (d[u] != 0) & (z >= min_m) & (z <= max_m) & (ax < kInf) & (ay < kInf);
         out[u] = ok ? p : invalid;
         valid += ok ? 1u : 0u;
       }

@@ -22,6 +22,14 @@
 namespace clutterseg::io {
 namespace {
 
+// Closes a file descriptor (unless released by setting it to -1) when it goes out of scope.
+struct FdCloser {
+  int fd;
+  ~FdCloser() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
 static_assert(std::endian::native == std::endian::little,
               "PCD binary data is little-endian; a big-endian host needs byte swapping");
 
@@ -576,10 +584,7 @@ std::string_view ReadWholeFile(const std::string& path, std::vector<char>* cache
                                std::vector<char>* large) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) Fail(path, std::string("cannot open: ") + std::strerror(errno));
-  struct FdCloser {
-    int fd;
-    ~FdCloser() { ::close(fd); }
-  } closer{fd};
+  const FdCloser closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) != 0) Fail(path, std::string("cannot stat: ") + std::strerror(errno));
   if (!S_ISREG(st.st_mode)) Fail(path, "not a regular file");
@@ -739,12 +744,7 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
   // pages is cheaper than truncating first, which frees them and allocates fresh ones.
   const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
   if (fd < 0) Fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
-  struct FdCloser {
-    int fd;
-    ~FdCloser() {
-      if (fd >= 0) ::close(fd);
-    }
-  } closer{fd};
+  FdCloser closer{fd};
   size_t total = 0;
   auto write_all = [&](const char* data, size_t size) {
     while (size > 0) {
@@ -760,11 +760,11 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
   };
   write_all(out.data(), out.size());
   if (encoding == PcdEncoding::kBinary) {
-    // Interleaved records go through a small reused block instead of a file-sized string:
-    // a fresh multi-megabyte buffer costs more in page faults than the copying.
+    // Interleaved records go through a small per-thread block instead of a file-sized
+    // string: a fresh multi-megabyte buffer costs more in page faults than the copying.
     constexpr size_t kRecord = 20;
     constexpr size_t kBlockPoints = 16384;
-    std::vector<char> block(kBlockPoints * kRecord);
+    thread_local std::vector<char> block(kBlockPoints * kRecord);
     const bool has_rgba = !cloud.rgba.empty(), has_label = !cloud.label.empty();
     for (size_t begin = 0; begin < n; begin += kBlockPoints) {
       const size_t end = std::min(n, begin + kBlockPoints);

@@ -55,8 +55,8 @@ uint32_t RestrictToDepthRange(const core::Vec3f* src, core::Vec3f* dst, size_t n
 #endif
   for (; i < n; ++i) {
     const core::Vec3f p = src[i];
-    const bool ok = (std::fabs(p.x) < kInf) & (std::fabs(p.y) < kInf) & (std::fabs(p.z) < kInf) &
-                    (p.z >= zmin) & (p.z <= zmax);
+    const float ax = std::fabs(p.x), ay = std::fabs(p.y), az = std::fabs(p.z);
+    const bool ok = (ax < kInf) & (ay < kInf) & (az < kInf) & (p.z >= zmin) & (p.z <= zmax);
     dst[i] = ok ? p : invalid;
     valid += ok ? 1u : 0u;
   }
