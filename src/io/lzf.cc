@@ -128,6 +128,16 @@ void DecodeFast(const uint8_t* in, size_t in_size, uint8_t* out, size_t out_capa
       Copy<8>(op + 16, ref + 16);
       Copy<8>(op + 24, ref + 24);
       for (size_t k = 32; k < len; k += 8) Copy<8>(op + k, ref + k);
+    } else if ((offset & (offset - 1)) == 0) {
+      // Periods 1, 2 and 4 (runs of a byte, of 16-bit values, of one float, e.g. NaN fields):
+      // one 8-byte pattern stored over and over. A byte loop here would wait on its own
+      // stores at every step.
+      uint64_t head;
+      Copy<8>(reinterpret_cast<uint8_t*>(&head), ref);  // bytes past the period are unused
+      const uint64_t mask = (uint64_t{1} << (8 * offset)) - 1;
+      const uint64_t pattern = (head & mask) * (~uint64_t{0} / mask);
+      for (size_t k = 0; k < len; k += 8)
+        Copy<8>(op + k, reinterpret_cast<const uint8_t*>(&pattern));
     } else {
       for (size_t k = 0; k < len; ++k) op[k] = ref[k];
     }

@@ -352,9 +352,14 @@ void GatherU32(const Field& f, const uint8_t* base, size_t stride, size_t n, uin
            : GatherIntAs<uint16_t>(base, stride, n, dst);
       break;
     case 4:
-      // F4 (packed rgb) is reinterpreted bit for bit, like U4.
-      sign ? GatherIntAs<int32_t>(base, stride, n, dst)
-           : GatherIntAs<uint32_t>(base, stride, n, dst);
+      // F4 (packed rgb) is reinterpreted bit for bit, like U4; a field stored contiguously
+      // (binary_compressed) is a plain copy.
+      if (stride == 4) {
+        std::memcpy(dst, base, 4 * n);
+      } else {
+        sign ? GatherIntAs<int32_t>(base, stride, n, dst)
+             : GatherIntAs<uint32_t>(base, stride, n, dst);
+      }
       break;
     default:
       sign ? GatherIntAs<int64_t>(base, stride, n, dst)
@@ -401,9 +406,17 @@ void GatherAll(const Header& h, const std::vector<const uint8_t*>& planes,
     const size_t sy = strides[h.y];
     const size_t sz = strides[h.z];
     core::Vec3f* out = cloud->xyz.data();
-    for (size_t i = 0; i < n; ++i) {
-      out[i] =
-          core::Vec3f{Load<float>(px + i * sx), Load<float>(py + i * sy), Load<float>(pz + i * sz)};
+    if (sx == 4 && sy == 4 && sz == 4) {
+      // Contiguous planes (binary_compressed): constant strides the compiler can vectorise.
+      for (size_t i = 0; i < n; ++i) {
+        out[i] =
+            core::Vec3f{Load<float>(px + 4 * i), Load<float>(py + 4 * i), Load<float>(pz + 4 * i)};
+      }
+    } else {
+      for (size_t i = 0; i < n; ++i) {
+        out[i] = core::Vec3f{Load<float>(px + i * sx), Load<float>(py + i * sy),
+                             Load<float>(pz + i * sz)};
+      }
     }
   } else {
     float* xyz = &cloud->xyz[0].x;

@@ -28,6 +28,8 @@ struct ObjectExtractor::Frame {
 };
 
 namespace {
+constexpr size_t kBandRows = 32;
+
 core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v.z()}; }
 
 }  // namespace
@@ -37,45 +39,85 @@ ObjectExtractor::~ObjectExtractor() = default;
 
 void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelImage& labels,
                               uint32_t num_objects, const std::vector<Plane>& planes,
-                              std::vector<Object>* objects) {
+                              std::vector<Object>* objects, core::ThreadPool* pool) {
   objects->resize(num_objects);
   if (num_objects == 0) return;
-  acc_.assign(num_objects, Accumulator{});
-  frames_.assign(num_objects, Frame{});
-  std::vector<Accumulator>& acc = acc_;
   const bool color = cloud.has_color();
   const int w = labels.width;
   const int h = w > 0 ? static_cast<int>(labels.data.size() / static_cast<size_t>(w)) : 0;
-  for (int v = 0; v < h; ++v) {
-    const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
-    for (int u = 0; u < w; ++u) {
-      const size_t i = row + static_cast<size_t>(u);
-      const uint32_t l = labels.data[i];
-      if (l == 0 || l > num_objects) continue;
-      const core::Vec3f& p = cloud.xyz[i];
-      if (!core::IsValid(p)) continue;
-      Accumulator& a = acc[l - 1];
-      const Eigen::Vector3d q(p.x, p.y, p.z);
-      a.n++;
-      a.sum += q;
-      a.sum_sq.noalias() += q * q.transpose();
-      const Eigen::Vector3f pf(p.x, p.y, p.z);
-      a.min = a.min.cwiseMin(pf);
-      a.max = a.max.cwiseMax(pf);
-      if (color) {
-        const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
-        a.r += c.r;
-        a.g += c.g;
-        a.b += c.b;
+  // Bands of whole rows, fixed whatever the pool: each accumulates on its own, and the bands
+  // are added up in order, so the sums do not depend on the thread count.
+  const size_t rows = static_cast<size_t>(h);
+  const size_t num_bands = core::ThreadPool::NumChunks(rows, kBandRows);
+  band_acc_.assign(num_bands * num_objects, Accumulator{});
+  auto for_bands = [&](const auto& fn) {
+    if (pool == nullptr || num_bands <= 1) {
+      for (size_t b = 0; b < rows; b += kBandRows) fn(b, std::min(rows, b + kBandRows));
+    } else {
+      pool->ParallelFor(rows, kBandRows, fn);
+    }
+  };
+  for_bands([&](size_t row_begin, size_t row_end) {
+    // Locals: the accumulators' stores would otherwise force reloads of what the lambda
+    // captures by reference.
+    Accumulator* acc = &band_acc_[(row_begin / kBandRows) * num_objects];
+    const int width = w;
+    const uint32_t count = num_objects;
+    const uint32_t* label = labels.data.data();
+    const core::Vec3f* xyz = cloud.xyz.data();
+    for (size_t v = row_begin; v < row_end; ++v) {
+      const size_t row = v * static_cast<size_t>(width);
+      for (int u = 0; u < width; ++u) {
+        const size_t i = row + static_cast<size_t>(u);
+        const uint32_t l = label[i];
+        if (l - 1 >= count) continue;  // 0 (no object) wraps around
+        const core::Vec3f& p = xyz[i];
+        if (!core::IsValid(p)) continue;
+        Accumulator& a = acc[l - 1];
+        const Eigen::Vector3d q(p.x, p.y, p.z);
+        a.n++;
+        a.sum += q;
+        a.sum_sq.noalias() += q * q.transpose();
+        const Eigen::Vector3f pf(p.x, p.y, p.z);
+        a.min = a.min.cwiseMin(pf);
+        a.max = a.max.cwiseMax(pf);
+        if (color) {
+          const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
+          a.r += c.r;
+          a.g += c.g;
+          a.b += c.b;
+        }
+        a.umin = std::min(a.umin, u);
+        a.umax = std::max(a.umax, u);
+        a.vmin = std::min(a.vmin, static_cast<int>(v));
+        a.vmax = std::max(a.vmax, static_cast<int>(v));
       }
-      a.umin = std::min(a.umin, u);
-      a.umax = std::max(a.umax, u);
-      a.vmin = std::min(a.vmin, v);
-      a.vmax = std::max(a.vmax, v);
+    }
+  });
+  acc_.assign(num_objects, Accumulator{});
+  std::vector<Accumulator>& acc = acc_;
+  for (size_t b = 0; b < num_bands; ++b) {
+    for (uint32_t k = 0; k < num_objects; ++k) {
+      const Accumulator& x = band_acc_[b * num_objects + k];
+      if (x.n == 0) continue;
+      Accumulator& a = acc[k];
+      a.n += x.n;
+      a.sum += x.sum;
+      a.sum_sq += x.sum_sq;
+      a.min = a.min.cwiseMin(x.min);
+      a.max = a.max.cwiseMax(x.max);
+      a.r += x.r;
+      a.g += x.g;
+      a.b += x.b;
+      a.umin = std::min(a.umin, x.umin);
+      a.umax = std::max(a.umax, x.umax);
+      a.vmin = std::min(a.vmin, x.vmin);
+      a.vmax = std::max(a.vmax, x.vmax);
     }
   }
 
   // Oriented boxes need the extents along the principal axes: a second pass.
+  frames_.assign(num_objects, Frame{});
   for (uint32_t k = 0; k < num_objects; ++k) {
     const Accumulator& a = acc[k];
     if (a.n == 0) continue;
@@ -94,16 +136,32 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelIm
     frames_[k].axes = ax;
     frames_[k].centroid = c.cast<float>();
   }
-  for (size_t i = 0; i < labels.data.size(); ++i) {
-    const uint32_t l = labels.data[i];
-    if (l == 0 || l > num_objects) continue;
-    const core::Vec3f& p = cloud.xyz[i];
-    if (!core::IsValid(p)) continue;
-    Frame& f = frames_[l - 1];
-    const Eigen::Vector3f local =
-        f.axes.transpose() * (Eigen::Vector3f(p.x, p.y, p.z) - f.centroid);
-    f.lo = f.lo.cwiseMin(local);
-    f.hi = f.hi.cwiseMax(local);
+  // Extents: minima and maxima, exact in any order.
+  band_frames_.assign(num_bands * num_objects, Frame{});
+  for_bands([&](size_t row_begin, size_t row_end) {
+    Frame* local = &band_frames_[(row_begin / kBandRows) * num_objects];
+    const uint32_t count = num_objects;
+    const uint32_t* label = labels.data.data();
+    const core::Vec3f* xyz = cloud.xyz.data();
+    const size_t end = row_end * static_cast<size_t>(w);
+    for (size_t i = row_begin * static_cast<size_t>(w); i < end; ++i) {
+      const uint32_t l = label[i];
+      if (l - 1 >= count) continue;
+      const core::Vec3f& p = xyz[i];
+      if (!core::IsValid(p)) continue;
+      const Frame& f = frames_[l - 1];
+      const Eigen::Vector3f q = f.axes.transpose() * (Eigen::Vector3f(p.x, p.y, p.z) - f.centroid);
+      Frame& box = local[l - 1];
+      box.lo = box.lo.cwiseMin(q);
+      box.hi = box.hi.cwiseMax(q);
+    }
+  });
+  for (size_t b = 0; b < num_bands; ++b) {
+    for (uint32_t k = 0; k < num_objects; ++k) {
+      const Frame& box = band_frames_[b * num_objects + k];
+      frames_[k].lo = frames_[k].lo.cwiseMin(box.lo);
+      frames_[k].hi = frames_[k].hi.cwiseMax(box.hi);
+    }
   }
 
   for (uint32_t k = 0; k < num_objects; ++k) {

@@ -5,6 +5,22 @@
 #include <numeric>
 
 namespace clutterseg::pipeline {
+namespace {
+
+constexpr size_t kPixelGrain = 16384;
+
+// Runs fn(begin, end) over bands of kPixelGrain pixels, on the pool when there is one. The
+// bands do not depend on the pool.
+template <typename Fn>
+void ForPixelBands(core::ThreadPool* pool, size_t n, const Fn& fn) {
+  if (pool == nullptr || n <= kPixelGrain) {
+    for (size_t b = 0; b < n; b += kPixelGrain) fn(b, std::min(n, b + kPixelGrain));
+    return;
+  }
+  pool->ParallelFor(n, kPixelGrain, fn);
+}
+
+}  // namespace
 
 int32_t Refiner::Find(int32_t x) {
   while (parent_[x] != x) {
@@ -44,7 +60,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
                       const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
                       const graph::PatchFeatures& features, const graph::LinkageResult& link,
                       const optimize::PlaneLabeling& planes, core::LabelImage* labels,
-                      std::vector<Plane>* out_planes) {
+                      std::vector<Plane>* out_planes, core::ThreadPool* pool) {
   const size_t n = sv.size();
   const size_t num_planes = planes.planes.size();
 
@@ -113,38 +129,72 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
     group_centroid_[g].z += w * features.centroid[i].z;
   }
 
-  // Label groups in row-major order of their first pixel; drop small ones.
+  // Label groups in row-major order of their first pixel; drop small ones. Each band of
+  // rows lists the groups in the order they first appear in it; the bands' lists, in band
+  // order, give every group's first appearance in the image. Pixels then take their
+  // supervoxel's label from a table.
+  // Tables indexed by supervoxel + 1, so that an invalid pixel (-1) needs no branch: group + 1
+  // (0 for background and invalid pixels) and, below, the object label.
+  sv_group_.resize(n + 1);
+  sv_group_[0] = 0;
+  for (size_t i = 0; i < n; ++i) {
+    sv_group_[i + 1] = background_[i] ? 0 : Find(static_cast<int32_t>(i)) + 1;
+  }
+  const size_t num_pixels = sv.pixel_label.size();
+  const size_t num_bands = core::ThreadPool::NumChunks(num_pixels, kPixelGrain);
+  if (band_groups_.size() < num_bands) band_groups_.resize(num_bands);
+  if (band_seen_.size() < num_bands) band_seen_.resize(num_bands);
+  ForPixelBands(pool, num_pixels, [&](size_t b, size_t e) {
+    std::vector<int32_t>& groups = band_groups_[b / kPixelGrain];
+    std::vector<uint8_t>& seen = band_seen_[b / kPixelGrain];
+    groups.clear();
+    seen.assign(n + 1, 0);
+    seen[0] = 1;  // background and invalid pixels
+    const int32_t* pixel = sv.pixel_label.data();
+    const int32_t* group = sv_group_.data();
+    for (size_t px = b; px < e; ++px) {
+      const int32_t g = group[pixel[px] + 1];
+      if (seen[g]) continue;
+      seen[g] = 1;
+      groups.push_back(g - 1);
+    }
+  });
   group_label_.assign(n, -1);
   uint32_t next = 0;
-  const size_t num_pixels = sv.pixel_label.size();
-  for (size_t px = 0; px < num_pixels; ++px) {
-    const int32_t s = sv.pixel_label[px];
-    if (s < 0 || background_[s]) {
-      labels->data[px] = 0;
-      continue;
+  for (size_t k = 0; k < num_bands; ++k) {
+    for (const int32_t g : band_groups_[k]) {
+      if (group_label_[g] < 0) {
+        group_label_[g] = KeepGroup(params, planes, g) ? static_cast<int32_t>(++next) : 0;
+      }
     }
-    const int32_t g = Find(s);
-    if (group_label_[g] < 0) {
-      group_label_[g] = KeepGroup(params, planes, g) ? static_cast<int32_t>(++next) : 0;
-    }
-    labels->data[px] = static_cast<uint32_t>(group_label_[g]);
+  }
+  sv_label_.resize(n + 1);
+  sv_label_[0] = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const int32_t g = sv_group_[i + 1];
+    sv_label_[i + 1] = g == 0 ? 0u : static_cast<uint32_t>(group_label_[g - 1]);
   }
 
   // Supervoxels straddle the contact between an object and its support: points of an object
   // that lie on a support plane go back to the background.
   const float snap = params.support_snap_distance_m;
-  if (snap > 0.f) {
+  ForPixelBands(pool, num_pixels, [&](size_t b, size_t e) {
+    const int32_t* pixel = sv.pixel_label.data();
+    const uint32_t* label = sv_label_.data();
+    uint32_t* out = labels->data.data();
+    for (size_t px = b; px < e; ++px) out[px] = label[pixel[px] + 1];
+    if (!(snap > 0.f)) return;
     for (size_t p = 0; p < num_planes; ++p) {
       if (!support_[p]) continue;
       const core::Vec3f nrm = planes.planes[p].normal;
       const float d = planes.planes[p].d;
-      for (size_t px = 0; px < num_pixels; ++px) {
+      for (size_t px = b; px < e; ++px) {
         if (labels->data[px] == 0) continue;
         const core::Vec3f& q = cloud.xyz[px];
         if (std::abs(nrm.x * q.x + nrm.y * q.y + nrm.z * q.z + d) < snap) labels->data[px] = 0;
       }
     }
-  }
+  });
   return next;
 }
 

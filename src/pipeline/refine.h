@@ -5,6 +5,7 @@
 
 #include "core/camera_intrinsics.h"
 #include "core/point_cloud.h"
+#include "core/thread_pool.h"
 #include "graph/linkage.h"
 #include "graph/patch_features.h"
 #include "optimize/planes.h"
@@ -24,12 +25,13 @@ namespace clutterseg::pipeline {
 class Refiner {
  public:
   /// Writes the label image (`labels` must already be sized to the frame) and the plane
-  /// list; returns the number of objects (labels 1..n).
+  /// list; returns the number of objects (labels 1..n). The pixel passes run on `pool` when
+  /// one is given; the result does not depend on it.
   uint32_t Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
                const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
                const graph::PatchFeatures& features, const graph::LinkageResult& link,
                const optimize::PlaneLabeling& planes, core::LabelImage* labels,
-               std::vector<Plane>* out_planes);
+               std::vector<Plane>* out_planes, core::ThreadPool* pool = nullptr);
 
  private:
   int32_t Find(int32_t x);
@@ -44,6 +46,10 @@ class Refiner {
   std::vector<uint64_t> group_points_;
   std::vector<core::Vec3f> group_centroid_;
   std::vector<int32_t> group_label_;
+  std::vector<int32_t> sv_group_;   // [s + 1]: root of supervoxel s's group + 1, 0 = background
+  std::vector<uint32_t> sv_label_;  // [s + 1]: object label of supervoxel s, 0 = none
+  std::vector<std::vector<int32_t>> band_groups_;  // groups in order of first pixel, per band
+  std::vector<std::vector<uint8_t>> band_seen_;
 };
 
 }  // namespace clutterseg::pipeline

@@ -198,9 +198,10 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   times.planes_ms = std::max(0.0, MsSince(t0) - times.expansion_ms);
 
   t0 = Clock::now();
-  const uint32_t num_objects = m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch,
-                                             m.link, m.planes, &result->labels, &result->planes);
-  m.objects.Compute(cloud, result->labels, num_objects, result->planes, &result->objects);
+  const uint32_t num_objects =
+      m.refiner.Run(m.params.objects, intrinsics, m.work, m.sv, m.patch, m.link, m.planes,
+                    &result->labels, &result->planes, m.pool);
+  m.objects.Compute(cloud, result->labels, num_objects, result->planes, &result->objects, m.pool);
   times.objects_ms = MsSince(t0);
   times.total_ms = MsSince(t_start);
 }

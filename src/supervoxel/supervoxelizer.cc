@@ -5,6 +5,11 @@
 #include <cmath>
 #include <limits>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#include <xmmintrin.h>
+#endif
+
 #include "core/assert.h"
 #include "geometry/moments.h"
 
@@ -17,6 +22,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kColorNormalizer = 255.f;
 constexpr size_t kPointGrain = 16384;
 constexpr size_t kMaxSeedChunks = 8;
+constexpr size_t kSeedCellGrain = 4096;  // voxels per chunk of the seed-cell search
 
 using Clock = std::chrono::steady_clock;
 
@@ -69,6 +75,48 @@ inline uint64_t CellKey(const core::Vec3f& p, float inv_cell, int32_t* ix, int32
          ((static_cast<uint64_t>(*iy + kOffset) & mask) << 21) |
          (static_cast<uint64_t>(*iz + kOffset) & mask);
 }
+
+#if defined(__SSE2__)
+// A supervoxel centre broadcast to four lanes, for the costs of four voxels at once.
+struct FourCentre {
+  FourCentre(const core::Vec3f& c, const core::Vec3f& n, float spatial, float normal)
+      : x(_mm_set1_ps(c.x)),
+        y(_mm_set1_ps(c.y)),
+        z(_mm_set1_ps(c.z)),
+        nx(_mm_set1_ps(n.x)),
+        ny(_mm_set1_ps(n.y)),
+        nz(_mm_set1_ps(n.z)),
+        ws(_mm_set1_ps(spatial)),
+        wn(_mm_set1_ps(normal)) {}
+
+  // ws |p - c|^2 + wn (1 - |n . cn|)^2 of voxels v[0..3] (features centroid, normal: six
+  // floats each), evaluated like Dist2 and Dot: left to right, no fused operations.
+  template <typename Feature>
+  __m128 Costs(const Feature* feature, const uint32_t* v) const {
+    static_assert(sizeof(Feature) == 6 * sizeof(float));
+    const float* f0 = &feature[v[0]].centroid.x;
+    const float* f1 = &feature[v[1]].centroid.x;
+    const float* f2 = &feature[v[2]].centroid.x;
+    const float* f3 = &feature[v[3]].centroid.x;
+    __m128 px = _mm_loadu_ps(f0), py = _mm_loadu_ps(f1), pz = _mm_loadu_ps(f2),
+           pw = _mm_loadu_ps(f3);  // x y z nx
+    __m128 qx = _mm_loadu_ps(f0 + 2), qy = _mm_loadu_ps(f1 + 2), qz = _mm_loadu_ps(f2 + 2),
+           qw = _mm_loadu_ps(f3 + 2);   // z nx ny nz
+    _MM_TRANSPOSE4_PS(px, py, pz, pw);  // px = x, py = y, pz = z
+    _MM_TRANSPOSE4_PS(qx, qy, qz, qw);  // qy = nx, qz = ny, qw = nz
+    const __m128 dx = _mm_sub_ps(px, x), dy = _mm_sub_ps(py, y), dz = _mm_sub_ps(pz, z);
+    const __m128 d2 =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+    const __m128 dot =
+        _mm_add_ps(_mm_add_ps(_mm_mul_ps(qy, nx), _mm_mul_ps(qz, ny)), _mm_mul_ps(qw, nz));
+    const __m128 abs_dot = _mm_and_ps(dot, _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff)));
+    const __m128 dn = _mm_sub_ps(_mm_set1_ps(1.f), abs_dot);
+    return _mm_add_ps(_mm_mul_ps(ws, d2), _mm_mul_ps(_mm_mul_ps(wn, dn), dn));
+  }
+
+  __m128 x, y, z, nx, ny, nz, ws, wn;
+};
+#endif
 
 }  // namespace
 
@@ -163,27 +211,56 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   const float inv_cell = 1.f / cell;
 
   // One candidate per occupied seed cell: the voxel nearest the cell centre (lowest index on
-  // ties, as voxels are visited in ascending order).
+  // ties). Chunks of voxels (fixed, whatever the pool) each keep their own best per cell, with
+  // ties to the first voxel; merging the chunks in order with the same rule gives the first
+  // voxel at the overall minimum, as one pass in voxel order would.
+  const size_t num_cell_chunks = core::ThreadPool::NumChunks(num_voxels, kSeedCellGrain);
+  if (chunk_cells_.size() < num_cell_chunks) chunk_cells_.resize(num_cell_chunks);
+  ForChunks(pool, num_voxels, kSeedCellGrain, [&](size_t b, size_t e) {
+    SeedCells& cells = chunk_cells_[b / kSeedCellGrain];
+    cells.map.Clear((e - b) / 8 + 16);
+    cells.key.clear();
+    cells.best_voxel.clear();
+    cells.best_dist.clear();
+    for (size_t v = b; v < e; ++v) {
+      const core::Vec3f& c = grid_.centroid[v];
+      int32_t ix, iy, iz;
+      const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
+      const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
+                               (static_cast<float>(iy) + 0.5f) * cell,
+                               (static_cast<float>(iz) + 0.5f) * cell};
+      const float d = Dist2(c, centre);
+      bool inserted = false;
+      const uint32_t index =
+          cells.map.FindOrInsert(key, static_cast<uint32_t>(cells.key.size()), &inserted);
+      if (inserted) {  // rare: most voxels share a cell with earlier ones
+        cells.key.push_back(key);
+        cells.best_voxel.push_back(static_cast<uint32_t>(v));
+        cells.best_dist.push_back(d);
+        continue;
+      }
+      // Which voxel is nearer is data dependent: selects instead of a branch.
+      const bool nearer = d < cells.best_dist[index];
+      cells.best_voxel[index] = nearer ? static_cast<uint32_t>(v) : cells.best_voxel[index];
+      cells.best_dist[index] = nearer ? d : cells.best_dist[index];
+    }
+  });
   cell_map_.Clear(num_voxels / 8 + 16);
   cell_best_voxel_.clear();
   cell_best_dist_.clear();
-  for (size_t v = 0; v < num_voxels; ++v) {
-    const core::Vec3f& c = grid_.centroid[v];
-    int32_t ix, iy, iz;
-    const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
-    const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
-                             (static_cast<float>(iy) + 0.5f) * cell,
-                             (static_cast<float>(iz) + 0.5f) * cell};
-    const float d = Dist2(c, centre);
-    bool inserted = false;
-    const uint32_t cell_index =
-        cell_map_.FindOrInsert(key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
-    if (inserted) {
-      cell_best_voxel_.push_back(static_cast<uint32_t>(v));
-      cell_best_dist_.push_back(d);
-    } else if (d < cell_best_dist_[cell_index]) {
-      cell_best_voxel_[cell_index] = static_cast<uint32_t>(v);
-      cell_best_dist_[cell_index] = d;
+  for (size_t k = 0; k < num_cell_chunks; ++k) {
+    const SeedCells& cells = chunk_cells_[k];
+    for (size_t i = 0; i < cells.key.size(); ++i) {
+      bool inserted = false;
+      const uint32_t index = cell_map_.FindOrInsert(
+          cells.key[i], static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
+      if (inserted) {
+        cell_best_voxel_.push_back(cells.best_voxel[i]);
+        cell_best_dist_.push_back(cells.best_dist[i]);
+      } else if (cells.best_dist[i] < cell_best_dist_[index]) {
+        cell_best_voxel_[index] = cells.best_voxel[i];
+        cell_best_dist_[index] = cells.best_dist[i];
+      }
     }
   }
   candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());
@@ -350,19 +427,32 @@ void Supervoxelizer::GrowRegion(size_t r, int max_layers) {
       // the region reads and rewrites v's own claim instead, unchanged.
       const core::Vec3f cx = centre_xyz_[s];
       const core::Vec3f cn = centre_normal_[s];
-      for (uint32_t a = begin; a < end; ++a) {
-        const uint32_t n = adjacency[a];
+      auto offer = [&](uint32_t n, float c) {
         const bool inside = n - lo < span;
         const uint32_t m = inside ? n : v;
         const Claim cl = claim[m];
-        const VoxelFeature& fe = feature[n];
-        const float dn = 1.f - std::fabs(Dot(fe.normal, cn));
-        const float c = ws * Dist2(fe.centroid, cx) + wn * dn * dn;
         // Unclaimed voxels cost infinity, so one comparison covers both cases.
         const bool take = inside & (c < cl.cost);
         claim[m] = take ? Claim{label, c} : cl;
         next[next_size] = {s, n};
         next_size += take ? 1 : 0;
+      };
+      uint32_t a = begin;
+#if defined(__SSE2__)
+      // Four neighbours' costs at once; each lane does the scalar cost's operations in the
+      // same order, so the costs are bit-identical to it.
+      const FourCentre centre(cx, cn, ws, wn);
+      for (; a + 4 <= end; a += 4) {
+        alignas(16) float c[4];
+        _mm_store_ps(c, centre.Costs(feature, adjacency + a));
+        for (int k = 0; k < 4; ++k) offer(adjacency[a + k], c[k]);
+      }
+#endif
+      for (; a < end; ++a) {
+        const uint32_t n = adjacency[a];
+        const VoxelFeature& fe = feature[n];
+        const float dn = 1.f - std::fabs(Dot(fe.normal, cn));
+        offer(n, ws * Dist2(fe.centroid, cx) + wn * dn * dn);
       }
     }
     frontier.swap(next_buf);

@@ -66,6 +66,24 @@ TEST(LzfTest, EveryShortPeriodRoundTrips) {
   }
 }
 
+TEST(LzfTest, ShortPeriodRunsAmidRandomDataRoundTrip) {
+  // Runs of periods 1-7 and of every length up to the longest back reference, between random
+  // bytes, so that they are decoded in the middle of a long stream (not near its ends).
+  std::mt19937 rng(7);
+  std::vector<uint8_t> input;
+  for (int run = 0; run < 3000; ++run) {
+    const size_t gap = rng() % 40;
+    for (size_t i = 0; i < gap; ++i) input.push_back(static_cast<uint8_t>(rng()));
+    const size_t period = 1 + rng() % 7;
+    const size_t length = period + 3 + rng() % 300;
+    for (size_t i = 0; i < period; ++i) input.push_back(static_cast<uint8_t>(rng()));
+    for (size_t i = period; i < length; ++i) input.push_back(input[input.size() - period]);
+  }
+  size_t packed = 0;
+  EXPECT_EQ(RoundTrip(input, &packed), input);
+  EXPECT_LT(packed, input.size() / 2);
+}
+
 TEST(LzfTest, FloatPlanesLikePcdRoundTrip) {
   std::vector<float> values(640 * 480);
   for (size_t i = 0; i < values.size(); ++i) {

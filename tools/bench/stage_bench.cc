@@ -216,9 +216,10 @@ void BM_RefineObjects(benchmark::State& state) {
   std::vector<pipeline::Object> objects;
   for (auto _ : state) {
     labels.Reset(in->work.width, in->work.height, 0u);
-    const uint32_t n = refiner.Run(in->params.objects, in->intrinsics, in->work, in->sv,
-                                   in->features, in->link, in->planes, &labels, &planes);
-    extractor.Compute(in->cloud, labels, n, planes, &objects);
+    const uint32_t n =
+        refiner.Run(in->params.objects, in->intrinsics, in->work, in->sv, in->features, in->link,
+                    in->planes, &labels, &planes, in->pool.get());
+    extractor.Compute(in->cloud, labels, n, planes, &objects, in->pool.get());
     benchmark::DoNotOptimize(objects.data());
   }
   state.counters["objects"] = static_cast<double>(objects.size());
