@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/simd_points.h"
 #include "core/thread_pool.h"
 
 namespace clutterseg::core {
@@ -81,7 +82,30 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
       const float yf = (static_cast<float>(v) - cy) * ify;
       const uint16_t* d = depth.data.data() + row;
       Vec3f* out = cloud->xyz.data() + row;
-      for (int u = 0; u < w; ++u) {
+      int u = 0;
+#if defined(__SSE2__)
+      // Four pixels at a time: the same operations in the same order as the scalar loop below.
+      const __m128 vcx = _mm_set1_ps(cx), vifx = _mm_set1_ps(ifx), vyf = _mm_set1_ps(yf);
+      const __m128 scale = _mm_set1_ps(0.001f), lo = _mm_set1_ps(min_m), hi = _mm_set1_ps(max_m);
+      const __m128 inf = _mm_set1_ps(kInf), nan = _mm_set1_ps(kInvalidDepth);
+      const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+      __m128 uf = _mm_setr_ps(0.f, 1.f, 2.f, 3.f);
+      for (; u + 4 <= w; u += 4, uf = _mm_add_ps(uf, _mm_set1_ps(4.f))) {
+        const __m128i raw = _mm_loadl_epi64(reinterpret_cast<const __m128i*>(d + u));
+        const __m128 df = _mm_cvtepi32_ps(_mm_unpacklo_epi16(raw, _mm_setzero_si128()));
+        const __m128 z = _mm_mul_ps(df, scale);
+        const __m128 x = _mm_mul_ps(_mm_mul_ps(_mm_sub_ps(uf, vcx), vifx), z);
+        const __m128 y = _mm_mul_ps(vyf, z);
+        const __m128 ok =
+            _mm_and_ps(_mm_and_ps(_mm_cmpneq_ps(df, _mm_setzero_ps()),
+                                  _mm_and_ps(_mm_cmpge_ps(z, lo), _mm_cmple_ps(z, hi))),
+                       _mm_and_ps(_mm_cmplt_ps(_mm_and_ps(x, abs_mask), inf),
+                                  _mm_cmplt_ps(_mm_and_ps(y, abs_mask), inf)));
+        StoreFourPointsWhere(ok, MakeFourPoints(x, y, z), nan, out + u);
+        valid += CountLanes(ok);
+      }
+#endif
+      for (; u < w; ++u) {
         const float z = d[u] * 0.001f;
         const Vec3f p{(static_cast<float>(u) - cx) * ifx * z, yf * z, z};
         // Degenerate intrinsics (a zero focal length from a broken recording) give non-finite
@@ -92,7 +116,7 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
         valid += ok ? 1u : 0u;
       }
       if (with_color) {
-        for (int u = 0; u < w; ++u) cloud->rgba[row + u] = PackRgba(color->data[row + u]);
+        for (int i = 0; i < w; ++i) cloud->rgba[row + i] = PackRgba(color->data[row + i]);
       }
     }
     num_valid.fetch_add(valid, std::memory_order_relaxed);

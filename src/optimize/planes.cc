@@ -9,6 +9,10 @@
 
 #include <Eigen/Dense>
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace clutterseg::optimize {
 namespace {
 
@@ -69,6 +73,16 @@ void PlaneLabeler::PackPatches(const graph::PatchFeatures& f) {
     if (f.num_points[i] < min_points) continue;
     packed_.push_back(PackedPatch{f.centroid[i], f.normal[i], static_cast<uint32_t>(i)});
   }
+  const size_t padded = (packed_.size() + 3) / 4 * 4;
+  for (std::vector<float>& plane : soa_) plane.assign(padded, 0.f);
+  for (size_t k = 0; k < packed_.size(); ++k) {
+    soa_[0][k] = packed_[k].centroid.x;
+    soa_[1][k] = packed_[k].centroid.y;
+    soa_[2][k] = packed_[k].centroid.z;
+    soa_[3][k] = packed_[k].normal.x;
+    soa_[4][k] = packed_[k].normal.y;
+    soa_[5][k] = packed_[k].normal.z;
+  }
   // Packed patches by x, for the neighbourhood queries (ties by position: a total order).
   by_x_.resize(packed_.size());
   for (size_t k = 0; k < packed_.size(); ++k) {
@@ -107,7 +121,37 @@ void PlaneLabeler::CollectInliers(const core::Vec3f& normal, float d, float tole
     for (const uint32_t k : near) inliers->push_back(packed_[k].index);
     return;
   }
-  for (const PackedPatch& p : packed_) {
+  size_t k = 0;
+#if defined(__SSE2__)
+  // Four patches at a time, the tests evaluated as the scalar ones below (same operations in
+  // the same order; "not greater" and "not less" let NaN pass as the scalar tests do). Each
+  // patch is written and kept by its bit, without a branch.
+  const size_t num_packed = packed_.size();
+  inliers->resize(num_packed + 4);
+  uint32_t* out = inliers->data();
+  size_t size = 0;
+  const __m128 nx = _mm_set1_ps(normal.x), ny = _mm_set1_ps(normal.y), nz = _mm_set1_ps(normal.z);
+  const __m128 vd = _mm_set1_ps(d), vrho = _mm_set1_ps(rho), vcos = _mm_set1_ps(min_cos);
+  const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+  for (; k + 4 <= soa_[0].size(); k += 4) {
+    const __m128 dist = _mm_add_ps(_mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, _mm_loadu_ps(&soa_[0][k])),
+                                                         _mm_mul_ps(ny, _mm_loadu_ps(&soa_[1][k]))),
+                                              _mm_mul_ps(nz, _mm_loadu_ps(&soa_[2][k]))),
+                                   vd);
+    const __m128 cos = _mm_add_ps(_mm_add_ps(_mm_mul_ps(nx, _mm_loadu_ps(&soa_[3][k])),
+                                             _mm_mul_ps(ny, _mm_loadu_ps(&soa_[4][k]))),
+                                  _mm_mul_ps(nz, _mm_loadu_ps(&soa_[5][k])));
+    const int keep = _mm_movemask_ps(
+        _mm_and_ps(_mm_cmpngt_ps(_mm_and_ps(dist, abs_mask), vrho), _mm_cmpnlt_ps(cos, vcos)));
+    for (int j = 0; j < 4; ++j) {
+      out[size] = k + j < num_packed ? packed_[k + j].index : 0u;
+      size += static_cast<size_t>((keep >> j) & 1);
+    }
+  }
+  inliers->resize(size);
+#endif
+  for (; k < packed_.size(); ++k) {
+    const PackedPatch& p = packed_[k];
     if (std::fabs(Dot(normal, p.centroid) + d) > rho) continue;
     if (Dot(normal, p.normal) < min_cos) continue;
     inliers->push_back(p.index);

@@ -84,6 +84,9 @@ class PlaneLabeler {
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;
   std::vector<PackedPatch> packed_;
+  // The same patches as planes of floats (centroid x, y, z, normal x, y, z), padded to a
+  // multiple of four with zero normals, which no inlier test passes.
+  std::vector<float> soa_[6];
   std::vector<std::pair<float, uint32_t>> by_x_;  // (centroid x, packed position), ascending
   std::vector<uint32_t> near_;                    // scratch of neighbourhood queries
   double last_expansion_ms_{0.0};

@@ -48,8 +48,7 @@ uint32_t RestrictToDepthRange(const core::Vec3f* src, core::Vec3f* dst, size_t n
                                      _mm_cmplt_ps(_mm_and_ps(p.z, abs_mask), inf));
     const __m128 keep =
         _mm_and_ps(finite, _mm_and_ps(_mm_cmpge_ps(p.z, lo), _mm_cmple_ps(p.z, hi)));
-    // Bits set in the 4-bit mask (no popcnt instruction in the x86-64 baseline).
-    valid += static_cast<uint32_t>((0x4332322132212110u >> (4 * _mm_movemask_ps(keep))) & 0xfu);
+    valid += core::CountLanes(keep);
     core::StoreFourPointsWhere(keep, p, nan, dst + i);
   }
 #endif

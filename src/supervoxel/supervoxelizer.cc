@@ -22,7 +22,6 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kColorNormalizer = 255.f;
 constexpr size_t kPointGrain = 16384;
 constexpr size_t kMaxSeedChunks = 8;
-constexpr size_t kSeedCellGrain = 4096;  // voxels per chunk of the seed-cell search
 
 using Clock = std::chrono::steady_clock;
 
@@ -211,56 +210,27 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   const float inv_cell = 1.f / cell;
 
   // One candidate per occupied seed cell: the voxel nearest the cell centre (lowest index on
-  // ties). Chunks of voxels (fixed, whatever the pool) each keep their own best per cell, with
-  // ties to the first voxel; merging the chunks in order with the same rule gives the first
-  // voxel at the overall minimum, as one pass in voxel order would.
-  const size_t num_cell_chunks = core::ThreadPool::NumChunks(num_voxels, kSeedCellGrain);
-  if (chunk_cells_.size() < num_cell_chunks) chunk_cells_.resize(num_cell_chunks);
-  ForChunks(pool, num_voxels, kSeedCellGrain, [&](size_t b, size_t e) {
-    SeedCells& cells = chunk_cells_[b / kSeedCellGrain];
-    cells.map.Clear((e - b) / 8 + 16);
-    cells.key.clear();
-    cells.best_voxel.clear();
-    cells.best_dist.clear();
-    for (size_t v = b; v < e; ++v) {
-      const core::Vec3f& c = grid_.centroid[v];
-      int32_t ix, iy, iz;
-      const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
-      const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
-                               (static_cast<float>(iy) + 0.5f) * cell,
-                               (static_cast<float>(iz) + 0.5f) * cell};
-      const float d = Dist2(c, centre);
-      bool inserted = false;
-      const uint32_t index =
-          cells.map.FindOrInsert(key, static_cast<uint32_t>(cells.key.size()), &inserted);
-      if (inserted) {  // rare: most voxels share a cell with earlier ones
-        cells.key.push_back(key);
-        cells.best_voxel.push_back(static_cast<uint32_t>(v));
-        cells.best_dist.push_back(d);
-        continue;
-      }
-      // Which voxel is nearer is data dependent: selects instead of a branch.
-      const bool nearer = d < cells.best_dist[index];
-      cells.best_voxel[index] = nearer ? static_cast<uint32_t>(v) : cells.best_voxel[index];
-      cells.best_dist[index] = nearer ? d : cells.best_dist[index];
-    }
-  });
+  // ties, as voxels are visited in ascending order).
   cell_map_.Clear(num_voxels / 8 + 16);
   cell_best_voxel_.clear();
   cell_best_dist_.clear();
-  for (size_t k = 0; k < num_cell_chunks; ++k) {
-    const SeedCells& cells = chunk_cells_[k];
-    for (size_t i = 0; i < cells.key.size(); ++i) {
-      bool inserted = false;
-      const uint32_t index = cell_map_.FindOrInsert(
-          cells.key[i], static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
-      if (inserted) {
-        cell_best_voxel_.push_back(cells.best_voxel[i]);
-        cell_best_dist_.push_back(cells.best_dist[i]);
-      } else if (cells.best_dist[i] < cell_best_dist_[index]) {
-        cell_best_voxel_[index] = cells.best_voxel[i];
-        cell_best_dist_[index] = cells.best_dist[i];
-      }
+  for (size_t v = 0; v < num_voxels; ++v) {
+    const core::Vec3f& c = grid_.centroid[v];
+    int32_t ix, iy, iz;
+    const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
+    const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
+                             (static_cast<float>(iy) + 0.5f) * cell,
+                             (static_cast<float>(iz) + 0.5f) * cell};
+    const float d = Dist2(c, centre);
+    bool inserted = false;
+    const uint32_t cell_index =
+        cell_map_.FindOrInsert(key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
+    if (inserted) {
+      cell_best_voxel_.push_back(static_cast<uint32_t>(v));
+      cell_best_dist_.push_back(d);
+    } else if (d < cell_best_dist_[cell_index]) {
+      cell_best_voxel_[cell_index] = static_cast<uint32_t>(v);
+      cell_best_dist_[cell_index] = d;
     }
   }
   candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());

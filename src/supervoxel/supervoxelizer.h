@@ -102,15 +102,7 @@ class Supervoxelizer {
   float spatial_weight_{0.f};  // ws / (3 R^2)
   float color_weight_{0.f};    // wc / m^2
 
-  // Seeding. Each chunk of voxels finds the best voxel of the cells it touches (cells in
-  // first-touch order); the chunks are merged in order into the frame's cells.
-  struct SeedCells {
-    geometry::internal::KeyIndexMap map;
-    std::vector<uint64_t> key;
-    std::vector<uint32_t> best_voxel;
-    std::vector<float> best_dist;
-  };
-  std::vector<SeedCells> chunk_cells_;
+  // Seeding.
   geometry::internal::KeyIndexMap cell_map_;
   std::vector<uint32_t> cell_best_voxel_;
   std::vector<float> cell_best_dist_;

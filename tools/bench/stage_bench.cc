@@ -5,6 +5,7 @@
 //                                                      the mOSD frame)
 // Arguments of every benchmark: frame (0 = mOSD, 1 = synthetic), pool threads.
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
@@ -239,6 +240,30 @@ void BM_Segmenter(benchmark::State& state) {
   SetLabel(state, *in);
 }
 
+// Back-projection of a depth image (the daemon's first step, ProcessDepth's "points"): the
+// frame's depths in millimetres, restricted to the segmenter's depth range.
+void BM_DepthToPointCloud(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  core::DepthImage depth(in->cloud.width, in->cloud.height, 0);
+  for (size_t i = 0; i < depth.data.size() && i < in->cloud.xyz.size(); ++i) {
+    const float z = in->cloud.xyz[i].z;
+    depth.data[i] = std::isfinite(z) && z > 0.f && z < 65.f
+                        ? static_cast<uint16_t>(std::lround(z * 1000.f))
+                        : uint16_t{0};
+  }
+  core::PointCloud cloud;
+  size_t valid = 0;
+  for (auto _ : state) {
+    valid = core::DepthToPointCloud(depth, in->intrinsics, nullptr, &cloud,
+                                    in->params.objects.min_depth_m, in->params.objects.max_depth_m,
+                                    in->pool.get());
+    benchmark::DoNotOptimize(cloud.xyz.data());
+  }
+  state.counters["valid"] = static_cast<double>(valid);
+  SetLabel(state, *in);
+}
+
 // Reading the mOSD frame's PCD file (binary_compressed, LZF) into a reused cloud, as
 // clutterseg-segment's lanes do; the file is in the page cache after the first iteration.
 void BM_ReadPcd(benchmark::State& state) {
@@ -332,6 +357,7 @@ BENCHMARK(BM_Linkage)->Apply(StageArgs);
 BENCHMARK(BM_PlanesExpansion)->Apply(StageArgs);
 BENCHMARK(BM_RefineObjects)->Apply(StageArgs);
 BENCHMARK(BM_Segmenter)->Apply(StageArgs);
+BENCHMARK(BM_DepthToPointCloud)->Apply(StageArgs);
 BENCHMARK(BM_ReadPcd)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_WritePcd)->Args({0, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
 #if CLUTTERSEG_BENCH_HAVE_DAEMON
