@@ -494,6 +494,7 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
   // Each chunk of columns writes its voxels' neighbours densely into a list of its own, which
   // is copied into place once all counts are known.
   constexpr size_t kColumnGrain = 1024;
+  constexpr uint32_t kMaxFlatCandidates = 48;
   const size_t num_chunks = core::ThreadPool::NumChunks(num_columns, kColumnGrain);
   if (chunk_nbr_.size() < num_chunks) chunk_nbr_.resize(num_chunks);
   ForChunks(pool, num_columns, kColumnGrain, [&](size_t cb, size_t ce) {
@@ -533,6 +534,40 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
       }
       const uint32_t self_begin = column_begin_[c];
       const uint32_t self_end = column_begin_[c + 1];
+      nb_begin[4] = self_begin;
+      nb_end[4] = self_end;
+      uint32_t num_candidates = 0;
+      for (int slot = 0; slot < 9; ++slot) num_candidates += nb_end[slot] - nb_begin[slot];
+      if (num_candidates <= kMaxFlatCandidates) {
+        // Short columns (the common case): the voxels of all nine columns, in index order, are
+        // tested against each voxel of this one without a branch (the walk below branches on
+        // every step).
+        uint32_t cand[kMaxFlatCandidates];
+        int32_t cand_z[kMaxFlatCandidates];
+        uint32_t n = 0;
+        for (int slot = 0; slot < 9; ++slot) {
+          for (uint32_t q = nb_begin[slot]; q < nb_end[slot]; ++q) {
+            cand[n] = q;
+            cand_z[n] = grid->coord[q].z;
+            ++n;
+          }
+        }
+        for (uint32_t a = self_begin; a < self_end; ++a) {
+          const int32_t za = grid->coord[a].z;
+          if (list.size() < list_size + n) list.resize(std::max(2 * list.size(), list_size + n));
+          uint32_t* out = list.data() + list_size;
+          uint32_t count = 0;
+          for (uint32_t k = 0; k < n; ++k) {
+            out[count] = cand[k];
+            // z within one of za (distinct within a column, so at most 26 in all), a excluded.
+            count += static_cast<uint32_t>((static_cast<uint32_t>(cand_z[k] - za + 1) <= 2u) &
+                                           (cand[k] != a));
+          }
+          nbr_count_[a] = static_cast<uint8_t>(count);
+          list_size += count;
+        }
+        continue;
+      }
       for (uint32_t a = self_begin; a < self_end; ++a) {
         const int32_t za = grid->coord[a].z;
         if (list.size() < list_size + 26) list.resize(std::max(2 * list.size(), list_size + 26));

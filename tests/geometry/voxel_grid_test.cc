@@ -191,9 +191,21 @@ TEST(VoxelGrid, CameraQuantisationMatchesADoublePrecisionReference) {
 }
 
 TEST(VoxelGrid, AdjacencyEqualsBruteForce26Neighbourhood) {
-  for (uint32_t seed : {1u, 2u, 3u}) {
+  // Seed 4 adds a solid 10 cm block: columns of about ten voxels, so that the voxelizer's path
+  // for neighbourhoods of tall columns is certainly taken, beside the one for short columns.
+  for (uint32_t seed : {1u, 2u, 3u, 4u}) {
     for (bool camera : {false, true}) {
-      const core::PointCloud cloud = RandomCloud(seed, 4000);
+      core::PointCloud cloud = RandomCloud(seed, 4000);
+      if (seed == 4) {
+        for (int i = 0; i < 20; ++i) {
+          for (int j = 0; j < 20; ++j) {
+            for (int k = 0; k < 20; ++k) {
+              cloud.xyz.push_back({0.4f + 0.005f * i, 0.4f + 0.005f * j, 1.2f + 0.005f * k});
+            }
+          }
+        }
+        cloud.width = static_cast<int>(cloud.xyz.size());
+      }
       Voxelizer dut(camera ? CameraSpace(0.01f) : Euclidean(0.01f));
       VoxelGrid grid;
       dut.Compute(cloud, nullptr, &grid);
