@@ -121,11 +121,7 @@ size_t DepthToPointCloud(const DepthImage& depth, const CameraIntrinsics& k,
     }
     num_valid.fetch_add(valid, std::memory_order_relaxed);
   };
-  if (pool != nullptr) {
-    pool->ParallelFor(num_rows, kRowGrain, rows);
-  } else {
-    rows(0, num_rows);
-  }
+  ForChunks(pool, num_rows, kRowGrain, rows);
   return num_valid.load(std::memory_order_relaxed);
 }
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
@@ -95,5 +96,19 @@ class ThreadPool {
   bool stopping_{false};
   std::atomic<int> active_callers_{0};  // see ActiveCaller
 };
+
+/// Calls `fn(begin, end)` for the chunks [k*grain, min(n, (k+1)*grain)) of [0, n) (grain > 0):
+/// through `pool`'s ParallelFor, or in chunk order on the calling thread when `pool` is null
+/// or there is a single chunk. The chunks are the same either way, so results combined in
+/// chunk order do not depend on the pool.
+template <typename Fn>
+void ForChunks(ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
+  if (n == 0) return;
+  if (pool == nullptr || n <= grain) {
+    for (size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
+    return;
+  }
+  pool->ParallelFor(n, grain, fn);
+}
 
 }  // namespace clutterseg::core

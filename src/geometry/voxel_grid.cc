@@ -171,17 +171,7 @@ inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float in
 #endif
 }
 
-// Runs fn(begin, end) over [0, n) on the pool, or inline without one. Chunk boundaries depend
-// only on n and grain.
-template <typename Fn>
-void ForChunks(core::ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
-  if (n == 0) return;
-  if (pool == nullptr || n <= grain) {
-    for (size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
-    return;
-  }
-  pool->ParallelFor(n, grain, fn);
-}
+using core::ForChunks;
 
 }  // namespace
 

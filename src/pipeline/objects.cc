@@ -50,14 +50,7 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelIm
   const size_t rows = static_cast<size_t>(h);
   const size_t num_bands = core::ThreadPool::NumChunks(rows, kBandRows);
   band_acc_.assign(num_bands * num_objects, Accumulator{});
-  auto for_bands = [&](const auto& fn) {
-    if (pool == nullptr || num_bands <= 1) {
-      for (size_t b = 0; b < rows; b += kBandRows) fn(b, std::min(rows, b + kBandRows));
-    } else {
-      pool->ParallelFor(rows, kBandRows, fn);
-    }
-  };
-  for_bands([&](size_t row_begin, size_t row_end) {
+  core::ForChunks(pool, rows, kBandRows, [&](size_t row_begin, size_t row_end) {
     // Locals: the accumulators' stores would otherwise force reloads of what the lambda
     // captures by reference.
     Accumulator* acc = &band_acc_[(row_begin / kBandRows) * num_objects];
@@ -138,7 +131,7 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelIm
   }
   // Extents: minima and maxima, exact in any order.
   band_frames_.assign(num_bands * num_objects, Frame{});
-  for_bands([&](size_t row_begin, size_t row_end) {
+  core::ForChunks(pool, rows, kBandRows, [&](size_t row_begin, size_t row_end) {
     Frame* local = &band_frames_[(row_begin / kBandRows) * num_objects];
     const uint32_t count = num_objects;
     const uint32_t* label = labels.data.data();

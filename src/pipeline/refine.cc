@@ -9,17 +9,6 @@ namespace {
 
 constexpr size_t kPixelGrain = 16384;
 
-// Runs fn(begin, end) over bands of kPixelGrain pixels, on the pool when there is one. The
-// bands do not depend on the pool.
-template <typename Fn>
-void ForPixelBands(core::ThreadPool* pool, size_t n, const Fn& fn) {
-  if (pool == nullptr || n <= kPixelGrain) {
-    for (size_t b = 0; b < n; b += kPixelGrain) fn(b, std::min(n, b + kPixelGrain));
-    return;
-  }
-  pool->ParallelFor(n, kPixelGrain, fn);
-}
-
 }  // namespace
 
 int32_t Refiner::Find(int32_t x) {
@@ -130,11 +119,11 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
   }
 
   // Label groups in row-major order of their first pixel; drop small ones. Each band of
-  // rows lists the groups in the order they first appear in it; the bands' lists, in band
+  // pixels lists the groups in the order they first appear in it; the bands' lists, in band
   // order, give every group's first appearance in the image. Pixels then take their
-  // supervoxel's label from a table.
-  // Tables indexed by supervoxel + 1, so that an invalid pixel (-1) needs no branch: group + 1
-  // (0 for background and invalid pixels) and, below, the object label.
+  // supervoxel's label from a table. Both tables are indexed by supervoxel + 1, so that an
+  // invalid pixel (-1) needs no branch: group + 1 (0 for background and invalid pixels), and
+  // the object label.
   sv_group_.resize(n + 1);
   sv_group_[0] = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -144,7 +133,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
   const size_t num_bands = core::ThreadPool::NumChunks(num_pixels, kPixelGrain);
   if (band_groups_.size() < num_bands) band_groups_.resize(num_bands);
   if (band_seen_.size() < num_bands) band_seen_.resize(num_bands);
-  ForPixelBands(pool, num_pixels, [&](size_t b, size_t e) {
+  core::ForChunks(pool, num_pixels, kPixelGrain, [&](size_t b, size_t e) {
     std::vector<int32_t>& groups = band_groups_[b / kPixelGrain];
     std::vector<uint8_t>& seen = band_seen_[b / kPixelGrain];
     groups.clear();
@@ -178,7 +167,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
   // Supervoxels straddle the contact between an object and its support: points of an object
   // that lie on a support plane go back to the background.
   const float snap = params.support_snap_distance_m;
-  ForPixelBands(pool, num_pixels, [&](size_t b, size_t e) {
+  core::ForChunks(pool, num_pixels, kPixelGrain, [&](size_t b, size_t e) {
     const int32_t* pixel = sv.pixel_label.data();
     const uint32_t* label = sv_label_.data();
     uint32_t* out = labels->data.data();

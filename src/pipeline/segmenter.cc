@@ -123,11 +123,7 @@ void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrins
   auto restrict_points = [&](size_t b, size_t e) {
     m.chunk_valid[b / kPointGrain] = RestrictToDepthRange(src + b, dst + b, e - b, zmin, zmax);
   };
-  if (m.pool != nullptr) {
-    m.pool->ParallelFor(n, kPointGrain, restrict_points);
-  } else if (n > 0) {
-    for (size_t b = 0; b < n; b += kPointGrain) restrict_points(b, std::min(n, b + kPointGrain));
-  }
+  core::ForChunks(m.pool, n, kPointGrain, restrict_points);
   const auto num_valid =
       static_cast<uint32_t>(std::accumulate(m.chunk_valid.begin(), m.chunk_valid.end(), 0u));
   if (m.params.supervoxel.color_importance > 0.f && cloud.has_color()) {

@@ -29,15 +29,7 @@ double Ms(Clock::time_point a, Clock::time_point b) {
   return std::chrono::duration<double, std::milli>(b - a).count();
 }
 
-template <typename Fn>
-void ForChunks(core::ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
-  if (n == 0) return;
-  if (pool == nullptr || n <= grain) {
-    for (size_t b = 0; b < n; b += grain) fn(b, std::min(n, b + grain));
-    return;
-  }
-  pool->ParallelFor(n, grain, fn);
-}
+using core::ForChunks;
 
 geometry::VoxelGridParams GridParams(const SupervoxelParams& p) {
   p.ValidateOrThrow();
