@@ -113,13 +113,7 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
 
   // Reverse slot of every CSR slot (the adjacency must be symmetric and sorted).
   reverse_slot_.resize(slots);
-  auto run = [&](const auto& fn) {
-    if (pool_ != nullptr) {
-      pool_->ParallelFor(n, kNodeGrain, fn);
-    } else {
-      fn(size_t{0}, n);
-    }
-  };
+  auto run = [&](const auto& fn) { core::ForChunks(pool_, n, kNodeGrain, fn); };
   run([&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) {
       for (uint32_t s = off[i]; s < off[i + 1]; ++s) {

@@ -116,11 +116,7 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
         internal::FinishPatchShape(m[0], shape, i, f);
       }
     };
-    if (pool_ != nullptr) {
-      pool_->ParallelFor(num_sv, kPatchGrain, finish_from_sv);
-    } else {
-      finish_from_sv(0, num_sv);
-    }
+    core::ForChunks(pool_, num_sv, kPatchGrain, finish_from_sv);
     return;
   }
 
@@ -179,11 +175,7 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
       }
     }
   };
-  if (pool_ != nullptr) {
-    pool_->ParallelFor(num_blocks, 1, accumulate);
-  } else {
-    accumulate(0, num_blocks);
-  }
+  core::ForChunks(pool_, num_blocks, 1, accumulate);
   for (uint8_t bad : bad_label) {
     if (bad) {
       throw std::runtime_error(
@@ -203,11 +195,7 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
       internal::FinishPatch(m[0], m + 1, m + 4, i, f);
     }
   };
-  if (pool_ != nullptr) {
-    pool_->ParallelFor(num_sv, kPatchGrain, finish);
-  } else {
-    finish(0, num_sv);
-  }
+  core::ForChunks(pool_, num_sv, kPatchGrain, finish);
 }
 
 }  // namespace clutterseg::graph
