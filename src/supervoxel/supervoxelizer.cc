@@ -263,7 +263,8 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
         uint32_t* out = queue.data();
         for (uint32_t a = a_begin; a < a_end; ++a) {
           const uint32_t n = grid_.adjacency[a];
-          const uint8_t join = (marks[n] == 0) & (Dist2(grid_.centroid[n], c) <= radius2);
+          const bool near = Dist2(grid_.centroid[n], c) <= radius2;
+          const uint8_t join = (marks[n] == 0) & near;
           marks[n] |= join;
           out[size] = n;
           size += join;
@@ -361,7 +362,7 @@ void Supervoxelizer::GrowRegion(size_t r, int max_layers) {
   for (int layer = 0; layer < max_layers && frontier_size > 0; ++layer) {
     size_t next_size = 0;
     for (size_t f = 0; f < frontier_size; ++f) {
-      const auto [s, v] = frontier[f];
+      const uint32_t s = frontier[f].first, v = frontier[f].second;  // captured below
       const int32_t label = static_cast<int32_t>(s);
       if (claim[v].owner != label) continue;
       const uint32_t begin = offsets[v], end = offsets[v + 1];
