@@ -335,8 +335,8 @@ struct PclResult {
   double peak_rss_mb{0};
 };
 
-PclResult RunPcl(const FrameSet& frames, int repeat) {
-  PclLccpRunner runner{pcl_baseline::BaselineParams{}};
+PclResult RunPcl(const FrameSet& frames, const pcl_baseline::BaselineParams& params, int repeat) {
+  PclLccpRunner runner{params};
   std::vector<double> sv(frames.size()), lc(frames.size()), tot(frames.size());
   std::vector<double> rs(static_cast<size_t>(repeat)), rl(rs.size()), rt(rs.size());
   PclResult out;
@@ -405,6 +405,8 @@ struct Options {
   bool pipelined{true};
   bool pcl{false};
   int pcl_repeat{1};
+  bool pcl_single_camera_transform{false};
+  bool pcl_no_extended{false};
   std::string json_path;
   int trace_allocs{0};
   size_t trace_config{0};
@@ -454,6 +456,12 @@ int Run(int argc, char** argv) {
   app.add_option("--pcl-repeat", opt.pcl_repeat, "PCL runs per frame (median is used)")
       ->check(CLI::Range(1, 100))
       ->capture_default_str();
+  app.add_flag("--pcl-single-camera-transform", opt.pcl_single_camera_transform,
+               "PCL voxelizes in the depth-dependent space (clutterseg-pcl-baseline's flag of "
+               "the same name)");
+  app.add_flag("--pcl-no-extended", opt.pcl_no_extended,
+               "PCL's LCCP without extended convexity (clutterseg-pcl-baseline --no-extended); "
+               "with --pcl-single-camera-transform PCL's best quality on the mOSD frames");
   app.add_option("--trace-allocs", opt.trace_allocs,
                  "print the call stacks of the first N allocations in a timed loop")
       ->check(CLI::Range(0, 100000));
@@ -471,6 +479,9 @@ int Run(int argc, char** argv) {
   }
   if (opt.dir.empty() == (opt.synthetic == 0)) {
     throw std::invalid_argument("give either DIR or --synthetic N (not both)");
+  }
+  if (!opt.pcl && (opt.pcl_single_camera_transform || opt.pcl_no_extended)) {
+    throw std::invalid_argument("--pcl-single-camera-transform and --pcl-no-extended need --pcl");
   }
 #if !CLUTTERSEG_BENCH_HAVE_PCL
   if (opt.pcl) {
@@ -576,14 +587,22 @@ int Run(int argc, char** argv) {
 
 #if CLUTTERSEG_BENCH_HAVE_PCL
   PclResult pcl;
+  pcl_baseline::BaselineParams pcl_params;
+  pcl_params.use_single_camera_transform = opt.pcl_single_camera_transform;
+  pcl_params.use_extended_convexity = !opt.pcl_no_extended;
+  const std::string pcl_setting =
+      std::string(pcl_params.use_single_camera_transform ? "single-camera transform"
+                                                         : "Euclidean voxels") +
+      (pcl_params.use_extended_convexity ? ", extended convexity" : ", no extended convexity");
   const bool pcl_reset = opt.pcl && ResetPeakRss();
   if (opt.pcl) {
     std::fprintf(stderr, "running: PCL supervoxels + LCCP\n");
-    pcl = RunPcl(frames, opt.pcl_repeat);
+    pcl = RunPcl(frames, pcl_params, opt.pcl_repeat);
     pcl.peak_rss_mb = ReadProcStatus().vm_hwm_mb;
     const double ours_pool = results[0].stages.back().mean;
     const double ours_1t = results.size() > 1 ? results[1].stages.back().mean : ours_pool;
-    std::printf("\nPCL supervoxels + LCCP (tools/pcl_baseline defaults, single thread), ms:\n");
+    std::printf("\nPCL supervoxels + LCCP (tools/pcl_baseline, %s; single thread), ms:\n",
+                pcl_setting.c_str());
     std::printf("  %-18s %9s %9s %9s %9s %9s\n", "stage", "mean", "p50", "p90", "p99", "max");
     const std::pair<const char*, const Summary*> rows[] = {
         {"supervoxels", &pcl.supervoxels}, {"lccp", &pcl.lccp}, {"total", &pcl.total}};
@@ -653,6 +672,8 @@ int Run(int argc, char** argv) {
 #if CLUTTERSEG_BENCH_HAVE_PCL
   if (opt.pcl) {
     w.Key("pcl").BeginObject();
+    w.Field("single_camera_transform", pcl_params.use_single_camera_transform);
+    w.Field("extended_convexity", pcl_params.use_extended_convexity);
     WriteSummary(&w, "supervoxels_ms", pcl.supervoxels);
     WriteSummary(&w, "lccp_ms", pcl.lccp);
     WriteSummary(&w, "total_ms", pcl.total);
