@@ -25,10 +25,10 @@
 
 #include <CLI/CLI.hpp>
 
-#include "core/point_cloud.h"
-#include "eval/metrics.h"
-#include "eval/report.h"
-#include "io/pcd.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/eval/metrics.h"
+#include "clutterseg/eval/report.h"
+#include "clutterseg/io/pcd.h"
 
 namespace fs = std::filesystem;
 

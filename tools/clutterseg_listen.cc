@@ -12,13 +12,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/io/png_io.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
+#include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/status_t.hpp"
-#include "daemon/lcm_bus.h"
-#include "daemon/messages.h"
-#include "io/png_io.h"
-#include "pipeline/overlay.h"
 
 namespace {
 

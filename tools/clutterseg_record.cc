@@ -26,9 +26,9 @@
 
 #include <CLI/CLI.hpp>
 
-#include "drivers/oni/oni_writer.h"
-#include "drivers/openni2/openni2_source.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 
 namespace clutterseg::tools {
 namespace {

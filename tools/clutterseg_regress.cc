@@ -7,7 +7,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "daemon/regress.h"
+#include "clutterseg/daemon/regress.h"
 
 int main(int argc, char** argv) {
   clutterseg::daemon::RegressOptions options;

@@ -17,14 +17,14 @@
 
 #include <CLI/CLI.hpp>
 
-#include "config/daemon_config.h"
-#include "core/json_writer.h"
-#include "core/text_and_color.h"
-#include "core/thread_pool.h"
-#include "io/pcd.h"
-#include "io/png_io.h"
-#include "pipeline/overlay.h"
-#include "pipeline/segmenter.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/core/json_writer.h"
+#include "clutterseg/core/text_and_color.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
+#include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/pipeline/segmenter.h"
 
 namespace fs = std::filesystem;
 using namespace clutterseg;

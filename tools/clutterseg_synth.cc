@@ -24,18 +24,18 @@
 
 #include <CLI/CLI.hpp>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "io/pcd.h"
-#include "io/png_io.h"
-#include "synth/internal/random.h"
-#include "synth/renderer.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
+#include "clutterseg/synth/random.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 
 #ifdef CLUTTERSEG_SYNTH_WITH_ONI
-#include "drivers/oni/oni_writer.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
 #endif
 
 namespace fs = std::filesystem;
@@ -347,7 +347,7 @@ int Run(int argc, char** argv) {
   int rendered = 0;
   sink->Begin(intrinsics);
   for (int s = 0; s < opt.count; ++s) {
-    const uint64_t scene_seed = internal::HashCounter(opt.seed, static_cast<uint64_t>(s), 0);
+    const uint64_t scene_seed = synth::HashCounter(opt.seed, static_cast<uint64_t>(s), 0);
     std::vector<Scene> scenes;
     if (opt.sequence) {
       scenes = GenerateSequence(scene_params, scene_seed, opt.frames);
@@ -369,7 +369,7 @@ int Run(int argc, char** argv) {
       rec.name = name;
       rec.scene_index = s;
       rec.scene_seed = scene_seed;
-      rec.noise_seed = internal::HashCounter(opt.seed, static_cast<uint64_t>(s), f + 1);
+      rec.noise_seed = synth::HashCounter(opt.seed, static_cast<uint64_t>(s), f + 1);
       rec.objects = scenes[f].objects;
       const std::clock_t c0 = std::clock();
       const auto t0 = std::chrono::steady_clock::now();

@@ -1,4 +1,4 @@
-#include "drivers/oni/oni_reader.h"
+#include "clutterseg/drivers/oni/oni_reader.h"
 
 #include <bit>
 #include <cerrno>
@@ -8,7 +8,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "drivers/oni/oni_format.h"
+#include "clutterseg/drivers/oni/oni_format.h"
 
 namespace clutterseg::drivers {
 namespace {

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/types.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::drivers {
 

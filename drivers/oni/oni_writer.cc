@@ -1,4 +1,4 @@
-#include "drivers/oni/oni_writer.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
 
 #include <algorithm>
 #include <bit>
@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "drivers/oni/oni_format.h"
+#include "clutterseg/drivers/oni/oni_format.h"
 
 namespace clutterseg::drivers {
 namespace {

@@ -4,8 +4,8 @@
 #include <memory>
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::drivers {
 

@@ -7,7 +7,7 @@
 // forward to the loaded library. A call before any InitializeOpenNI2() loads the library with
 // all its drivers, as linking it would have.
 
-#include "drivers/openni2/openni2_library.h"
+#include "clutterseg/drivers/openni2/openni2_library.h"
 
 #include <OniCAPI.h>
 #include <dlfcn.h>

@@ -1,4 +1,4 @@
-#include "drivers/openni2/openni2_source.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
 
 #include <OpenNI.h>
 #include <dlfcn.h>
@@ -17,7 +17,7 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/oni/oni_reader.h"
+#include "clutterseg/drivers/oni/oni_reader.h"
 
 namespace clutterseg::drivers {
 namespace {

@@ -3,9 +3,9 @@
 #include <memory>
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/frame_source.h"
-#include "drivers/openni2/openni2_library.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_source.h"
+#include "clutterseg/drivers/openni2/openni2_library.h"
 
 namespace clutterseg::drivers {
 

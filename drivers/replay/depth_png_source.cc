@@ -1,4 +1,4 @@
-#include "drivers/replay/depth_png_source.h"
+#include "clutterseg/drivers/replay/depth_png_source.h"
 
 #include <algorithm>
 #include <cctype>
@@ -7,8 +7,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "drivers/replay/pcd_directory_source.h"
-#include "io/png_io.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
+#include "clutterseg/io/png_io.h"
 
 namespace clutterseg::drivers {
 namespace fs = std::filesystem;

@@ -4,8 +4,8 @@
 #include <string>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/frame_source.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_source.h"
 
 namespace clutterseg::drivers {
 

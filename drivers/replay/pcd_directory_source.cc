@@ -1,4 +1,4 @@
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 
 #include <algorithm>
 #include <cctype>
@@ -9,8 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/text_and_color.h"
-#include "io/pcd.h"
+#include "clutterseg/core/text_and_color.h"
+#include "clutterseg/io/pcd.h"
 
 namespace clutterseg::drivers {
 namespace fs = std::filesystem;

@@ -4,9 +4,9 @@
 #include <string>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/frame_source.h"
-#include "core/point_cloud.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_source.h"
+#include "clutterseg/core/point_cloud.h"
 
 namespace clutterseg::drivers {
 

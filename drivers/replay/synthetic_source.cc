@@ -1,4 +1,4 @@
-#include "drivers/replay/synthetic_source.h"
+#include "clutterseg/drivers/replay/synthetic_source.h"
 
 #include <algorithm>
 #include <atomic>
@@ -8,8 +8,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/thread_pool.h"
-#include "synth/renderer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/synth/renderer.h"
 
 namespace clutterseg::drivers {
 

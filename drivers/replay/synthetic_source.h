@@ -4,11 +4,11 @@
 #include <memory>
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/frame_source.h"
-#include "core/types.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_source.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 
 namespace clutterseg::drivers {
 

@@ -1,4 +1,4 @@
-#include "config/daemon_config.h"
+#include "clutterseg/config/daemon_config.h"
 
 #include <cctype>
 #include <cerrno>
@@ -13,8 +13,8 @@
 
 #include <yaml-cpp/yaml.h>
 
-#include "config/internal/key_table.h"
-#include "config/segmenter_keys.h"
+#include "clutterseg/config/key_table.h"
+#include "clutterseg/config/segmenter_keys.h"
 
 namespace clutterseg::config {
 namespace internal {

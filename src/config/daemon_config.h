@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::config {
 

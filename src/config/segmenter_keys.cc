@@ -1,4 +1,4 @@
-#include "config/segmenter_keys.h"
+#include "clutterseg/config/segmenter_keys.h"
 
 namespace clutterseg::config {
 

@@ -2,8 +2,8 @@
 
 #include <vector>
 
-#include "config/internal/key_table.h"
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/config/key_table.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::config {
 

@@ -1,4 +1,4 @@
-#include "core/frame.h"
+#include "clutterseg/core/frame.h"
 
 #include <chrono>
 

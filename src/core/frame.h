@@ -3,8 +3,8 @@
 #include <cstdint>
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::core {
 

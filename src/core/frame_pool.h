@@ -3,8 +3,8 @@
 #include <cstddef>
 #include <memory>
 
-#include "core/frame.h"
-#include "core/spsc_ring.h"
+#include "clutterseg/core/frame.h"
+#include "clutterseg/core/spsc_ring.h"
 
 namespace clutterseg::core {
 

@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "core/frame.h"
+#include "clutterseg/core/frame.h"
 
 namespace clutterseg::core {
 

@@ -1,4 +1,4 @@
-#include "core/point_cloud.h"
+#include "clutterseg/core/point_cloud.h"
 
 #include <atomic>
 #include <cmath>
@@ -6,8 +6,8 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/simd_points.h"
-#include "core/thread_pool.h"
+#include "clutterseg/core/simd_points.h"
+#include "clutterseg/core/thread_pool.h"
 
 namespace clutterseg::core {
 

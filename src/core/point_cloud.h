@@ -4,8 +4,8 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::core {
 

@@ -6,7 +6,7 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 
-#include "core/types.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::core {
 

@@ -11,7 +11,7 @@
 #include <mutex>
 #include <vector>
 
-#include "core/assert.h"
+#include "clutterseg/core/assert.h"
 
 namespace clutterseg::core {
 namespace internal {

@@ -2,7 +2,7 @@
 
 #include <string_view>
 
-#include "core/types.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::core {
 

@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/function_ref.h"
+#include "clutterseg/core/function_ref.h"
 
 namespace clutterseg::core {
 

@@ -1,4 +1,4 @@
-#include "daemon/daemon.h"
+#include "clutterseg/daemon/daemon.h"
 
 #include <pthread.h>
 
@@ -12,20 +12,20 @@
 #include <thread>
 #include <vector>
 
+#include "clutterseg/core/frame.h"
+#include "clutterseg/core/frame_pool.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/daemon/latency_stats.h"
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/io/png_io.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
+#include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/pipeline/segmenter.h"
 #include "clutterseg/status_t.hpp"
-#include "core/frame.h"
-#include "core/frame_pool.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "daemon/latency_stats.h"
-#include "daemon/lcm_bus.h"
-#include "daemon/log.h"
-#include "daemon/messages.h"
-#include "io/png_io.h"
-#include "pipeline/overlay.h"
-#include "pipeline/segmenter.h"
 
 namespace clutterseg::daemon {
 namespace {

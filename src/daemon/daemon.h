@@ -6,9 +6,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "config/daemon_config.h"
-#include "core/frame_source.h"
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/core/frame_source.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::daemon {
 

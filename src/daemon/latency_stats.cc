@@ -1,9 +1,9 @@
-#include "daemon/latency_stats.h"
+#include "clutterseg/daemon/latency_stats.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/assert.h"
+#include "clutterseg/core/assert.h"
 
 namespace clutterseg::daemon {
 

@@ -1,4 +1,4 @@
-#include "daemon/lcm_bus.h"
+#include "clutterseg/daemon/lcm_bus.h"
 
 #include <exception>
 #include <stdexcept>

@@ -1,4 +1,4 @@
-#include "daemon/lcm_url.h"
+#include "clutterseg/daemon/lcm_url.h"
 
 #include <cstdint>
 #include <cstdlib>

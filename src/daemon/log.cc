@@ -1,4 +1,4 @@
-#include "daemon/log.h"
+#include "clutterseg/daemon/log.h"
 
 #include <atomic>
 #include <cstdio>

@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "config/daemon_config.h"
+#include "clutterseg/config/daemon_config.h"
 
 namespace clutterseg::daemon {
 

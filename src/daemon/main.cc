@@ -20,12 +20,12 @@
 #include <CLI/CLI.hpp>
 #include <sys/signalfd.h>
 
-#include "config/daemon_config.h"
-#include "daemon/daemon.h"
-#include "daemon/lcm_bus.h"
-#include "daemon/lcm_url.h"
-#include "daemon/log.h"
-#include "daemon/source_factory.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/daemon/daemon.h"
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/lcm_url.h"
+#include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/source_factory.h"
 
 namespace clutterseg::daemon {
 namespace {

@@ -1,4 +1,4 @@
-#include "daemon/messages.h"
+#include "clutterseg/daemon/messages.h"
 
 #include <zlib.h>
 

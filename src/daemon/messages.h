@@ -6,10 +6,10 @@
 #include <string>
 #include <vector>
 
-#include "config/daemon_config.h"
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
-#include "pipeline/segmentation_result.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/pipeline/segmentation_result.h"
 
 namespace clutterseg {
 class objects_t;

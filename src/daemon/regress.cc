@@ -1,4 +1,4 @@
-#include "daemon/regress.h"
+#include "clutterseg/daemon/regress.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,9 +9,9 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "clutterseg/daemon/messages.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
-#include "daemon/messages.h"
 
 namespace clutterseg::daemon {
 namespace {

@@ -1,20 +1,20 @@
-#include "daemon/source_factory.h"
+#include "clutterseg/daemon/source_factory.h"
 
 #include <filesystem>
 #include <stdexcept>
 
-#include "daemon/daemon.h"
-#include "daemon/log.h"
+#include "clutterseg/daemon/daemon.h"
+#include "clutterseg/daemon/log.h"
 
 #ifdef CLUTTERSEG_HAVE_OPENNI2
-#include "drivers/openni2/openni2_source.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
 #endif
 #ifdef CLUTTERSEG_HAVE_REPLAY
-#include "drivers/replay/depth_png_source.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/drivers/replay/depth_png_source.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 #endif
 #ifdef CLUTTERSEG_HAVE_SYNTHETIC_SOURCE
-#include "drivers/replay/synthetic_source.h"
+#include "clutterseg/drivers/replay/synthetic_source.h"
 #endif
 
 namespace clutterseg::daemon {

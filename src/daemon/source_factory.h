@@ -3,8 +3,8 @@
 #include <memory>
 #include <string>
 
-#include "config/daemon_config.h"
-#include "core/frame_source.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/core/frame_source.h"
 
 namespace clutterseg::daemon {
 

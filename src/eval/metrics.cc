@@ -1,10 +1,10 @@
-#include "eval/metrics.h"
+#include "clutterseg/eval/metrics.h"
 
 #include <algorithm>
 #include <stdexcept>
 #include <string>
 
-#include "core/assert.h"
+#include "clutterseg/core/assert.h"
 
 namespace clutterseg::eval {
 namespace {

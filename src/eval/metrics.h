@@ -8,8 +8,8 @@
 #include <utility>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/types.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::eval {
 

@@ -1,4 +1,4 @@
-#include "eval/report.h"
+#include "clutterseg/eval/report.h"
 
 #include <cstdio>
 #include <string>

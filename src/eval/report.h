@@ -3,7 +3,7 @@
 #include <string>
 #include <string_view>
 
-#include "eval/metrics.h"
+#include "clutterseg/eval/metrics.h"
 
 namespace clutterseg::eval {
 

@@ -1,4 +1,4 @@
-#include "geometry/moments.h"
+#include "clutterseg/geometry/moments.h"
 
 #include <algorithm>
 #include <cmath>

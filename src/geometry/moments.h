@@ -3,7 +3,7 @@
 #include <array>
 #include <cstddef>
 
-#include "core/types.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::geometry {
 

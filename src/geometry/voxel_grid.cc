@@ -1,4 +1,4 @@
-#include "geometry/voxel_grid.h"
+#include "clutterseg/geometry/voxel_grid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,9 +6,9 @@
 #include <stdexcept>
 #include <utility>
 
-#include "core/assert.h"
-#include "core/simd_points.h"
-#include "geometry/moments.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/core/simd_points.h"
+#include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::geometry {
 namespace {

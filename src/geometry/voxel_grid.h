@@ -4,10 +4,10 @@
 #include <utility>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "core/types.h"
-#include "geometry/internal/key_index_map.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/geometry/key_index_map.h"
 
 namespace clutterseg::geometry {
 
@@ -124,7 +124,7 @@ class Voxelizer {
 
   // Voxels of one band of points, in first-occurrence order, with their sums.
   struct Band {
-    internal::KeyIndexMap map;
+    KeyIndexMap map;
     std::vector<uint64_t> key;
     std::vector<uint32_t> count;
     std::vector<double> sums;  // 9 per voxel

@@ -1,4 +1,4 @@
-#include "graph/linkage.h"
+#include "clutterseg/graph/linkage.h"
 
 #include <algorithm>
 #include <cmath>

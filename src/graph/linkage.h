@@ -3,10 +3,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/thread_pool.h"
-#include "graph/linkage_params.h"
-#include "graph/patch_features.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/linkage_params.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::graph {
 

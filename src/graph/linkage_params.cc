@@ -1,4 +1,4 @@
-#include "graph/linkage_params.h"
+#include "clutterseg/graph/linkage_params.h"
 
 #include <cmath>
 #include <stdexcept>

@@ -1,11 +1,11 @@
-#include "graph/patch_features.h"
+#include "clutterseg/graph/patch_features.h"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
-#include "geometry/moments.h"
+#include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::graph {
 namespace {

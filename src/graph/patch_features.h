@@ -4,11 +4,11 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "core/types.h"
-#include "geometry/moments.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/geometry/moments.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::graph {
 

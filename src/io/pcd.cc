@@ -1,4 +1,4 @@
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -16,8 +16,8 @@
 
 #include <sys/stat.h>
 
-#include "core/assert.h"
-#include "io/lzf.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/io/lzf.h"
 
 namespace clutterseg::io {
 namespace {

@@ -2,7 +2,7 @@
 
 #include <string>
 
-#include "core/point_cloud.h"
+#include "clutterseg/core/point_cloud.h"
 
 namespace clutterseg::io {
 

@@ -1,4 +1,4 @@
-#include "io/png_io.h"
+#include "clutterseg/io/png_io.h"
 
 #include <png.h>
 
@@ -12,8 +12,8 @@
 #include <string>
 #include <vector>
 
-#include "core/assert.h"
-#include "io/internal/json.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/io/internal/json.h"
 
 namespace clutterseg::io {
 namespace {

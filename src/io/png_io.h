@@ -2,9 +2,9 @@
 
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/types.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::io {
 

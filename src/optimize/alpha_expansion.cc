@@ -1,10 +1,10 @@
-#include "optimize/alpha_expansion.h"
+#include "clutterseg/optimize/alpha_expansion.h"
 
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
-#include "core/assert.h"
+#include "clutterseg/core/assert.h"
 
 namespace clutterseg::optimize {
 namespace {

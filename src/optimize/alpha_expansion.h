@@ -4,7 +4,7 @@
 #include <span>
 #include <vector>
 
-#include "optimize/max_flow.h"
+#include "clutterseg/optimize/max_flow.h"
 
 namespace clutterseg::optimize {
 

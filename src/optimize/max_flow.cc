@@ -1,9 +1,9 @@
-#include "optimize/max_flow.h"
+#include "clutterseg/optimize/max_flow.h"
 
 #include <algorithm>
 #include <limits>
 
-#include "core/assert.h"
+#include "clutterseg/core/assert.h"
 
 namespace clutterseg::optimize {
 

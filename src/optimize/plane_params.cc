@@ -1,4 +1,4 @@
-#include "optimize/plane_params.h"
+#include "clutterseg/optimize/plane_params.h"
 
 #include <cmath>
 #include <stdexcept>

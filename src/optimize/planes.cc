@@ -1,4 +1,4 @@
-#include "optimize/planes.h"
+#include "clutterseg/optimize/planes.h"
 
 #include <algorithm>
 #include <chrono>

@@ -4,10 +4,10 @@
 #include <utility>
 #include <vector>
 
-#include "graph/patch_features.h"
-#include "optimize/alpha_expansion.h"
-#include "optimize/plane_params.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/optimize/alpha_expansion.h"
+#include "clutterseg/optimize/plane_params.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::optimize {
 

@@ -1,4 +1,4 @@
-#include "pipeline/objects.h"
+#include "clutterseg/pipeline/objects.h"
 
 #include <algorithm>
 #include <cmath>

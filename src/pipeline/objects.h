@@ -3,9 +3,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "pipeline/segmentation_result.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/pipeline/segmentation_result.h"
 
 namespace clutterseg::pipeline {
 

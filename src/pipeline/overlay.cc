@@ -1,9 +1,9 @@
-#include "pipeline/overlay.h"
+#include "clutterseg/pipeline/overlay.h"
 
 #include <algorithm>
 #include <cmath>
 
-#include "core/text_and_color.h"
+#include "clutterseg/core/text_and_color.h"
 
 namespace clutterseg::pipeline {
 

@@ -1,7 +1,7 @@
 #pragma once
 
-#include "core/point_cloud.h"
-#include "core/types.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::pipeline {
 

@@ -1,4 +1,4 @@
-#include "pipeline/refine.h"
+#include "clutterseg/pipeline/refine.h"
 
 #include <algorithm>
 #include <cmath>

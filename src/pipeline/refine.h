@@ -3,15 +3,15 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "graph/linkage.h"
-#include "graph/patch_features.h"
-#include "optimize/planes.h"
-#include "pipeline/segmentation_result.h"
-#include "pipeline/segmenter_params.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/linkage.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/optimize/planes.h"
+#include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/pipeline/segmenter_params.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::pipeline {
 

@@ -1,4 +1,4 @@
-#include "pipeline/segmenter.h"
+#include "clutterseg/pipeline/segmenter.h"
 
 #include <algorithm>
 #include <chrono>
@@ -7,14 +7,14 @@
 #include <numeric>
 #include <vector>
 
-#include "core/simd_points.h"
-#include "core/thread_pool.h"
-#include "graph/linkage.h"
-#include "graph/patch_features.h"
-#include "optimize/planes.h"
-#include "pipeline/objects.h"
-#include "pipeline/refine.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/simd_points.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/linkage.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/optimize/planes.h"
+#include "clutterseg/pipeline/objects.h"
+#include "clutterseg/pipeline/refine.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 
 namespace clutterseg::pipeline {
 namespace {

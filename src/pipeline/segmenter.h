@@ -4,11 +4,11 @@
 #include <cstdint>
 #include <memory>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "pipeline/segmentation_result.h"
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::pipeline {
 

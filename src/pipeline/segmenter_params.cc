@@ -1,4 +1,4 @@
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 #include <cmath>
 #include <sstream>

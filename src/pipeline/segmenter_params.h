@@ -1,8 +1,8 @@
 #pragma once
 
-#include "graph/linkage_params.h"
-#include "optimize/plane_params.h"
-#include "supervoxel/supervoxel_params.h"
+#include "clutterseg/graph/linkage_params.h"
+#include "clutterseg/optimize/plane_params.h"
+#include "clutterseg/supervoxel/supervoxel_params.h"
 
 namespace clutterseg::pipeline {
 

@@ -1,4 +1,4 @@
-#include "supervoxel/supervoxel_params.h"
+#include "clutterseg/supervoxel/supervoxel_params.h"
 
 #include <cmath>
 #include <sstream>

@@ -1,4 +1,4 @@
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,8 +10,8 @@
 #include <xmmintrin.h>
 #endif
 
-#include "core/assert.h"
-#include "geometry/moments.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::supervoxel {
 namespace {

@@ -4,12 +4,12 @@
 #include <utility>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "core/types.h"
-#include "geometry/voxel_grid.h"
-#include "supervoxel/supervoxel_params.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/geometry/voxel_grid.h"
+#include "clutterseg/supervoxel/supervoxel_params.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::supervoxel {
 
@@ -103,7 +103,7 @@ class Supervoxelizer {
   float color_weight_{0.f};    // wc / m^2
 
   // Seeding.
-  geometry::internal::KeyIndexMap cell_map_;
+  geometry::KeyIndexMap cell_map_;
   std::vector<uint32_t> cell_best_voxel_;
   std::vector<float> cell_best_dist_;
   std::vector<uint32_t> candidates_;

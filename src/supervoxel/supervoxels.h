@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/types.h"
+#include "clutterseg/core/types.h"
 
 namespace clutterseg::supervoxel {
 

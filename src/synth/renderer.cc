@@ -1,4 +1,4 @@
-#include "synth/renderer.h"
+#include "clutterseg/synth/renderer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,18 +7,16 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/assert.h"
-#include "synth/internal/noise_field.h"
-#include "synth/internal/random.h"
-#include "synth/internal/ray_cast.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/synth/internal/noise_field.h"
+#include "clutterseg/synth/internal/ray_cast.h"
+#include "clutterseg/synth/random.h"
 
 namespace clutterseg::synth {
 namespace {
 
-using internal::FastGaussianFromBits;
 using internal::PreparedPrimitive;
 using internal::TileBins;
-using internal::ToUnit;
 
 constexpr double kPi = 3.14159265358979323846;
 // Rows per ParallelFor chunk (fixed, so chunking never depends on the thread count).
@@ -134,12 +132,12 @@ uint8_t ToByte(double v) { return static_cast<uint8_t>(std::clamp(v, 0.0, 255.0)
 // Base random bits of pixel (or cell) `i`: the i-th output of a SplitMix64 stream whose
 // start is the (already mixed) noise seed.
 uint64_t PixelHash(uint64_t mixed_seed, uint64_t i) {
-  return internal::Mix64(mixed_seed + i * 0x9e3779b97f4a7c15ULL);
+  return Mix64(mixed_seed + i * 0x9e3779b97f4a7c15ULL);
 }
 
 // Random bits of one stream of one pixel, from the pixel's base hash.
 uint64_t StreamBits(uint64_t pixel_hash, uint64_t stream) {
-  return internal::Mix64(pixel_hash ^ (stream * 0xd6e8feb86659fd93ULL));
+  return Mix64(pixel_hash ^ (stream * 0xd6e8feb86659fd93ULL));
 }
 
 // Pass 1: geometry. Writes true depth, true label, geometric status and colour.
@@ -300,7 +298,7 @@ void RenderScene(const Scene& scene, const core::CameraIntrinsics& intrinsics,
   Context ctx;
   ctx.scene = &scene;
   ctx.sensor = &sensor;
-  ctx.seed = internal::Mix64(noise_seed ^ 0x6a09e667f3bcc909ULL);
+  ctx.seed = Mix64(noise_seed ^ 0x6a09e667f3bcc909ULL);
   ctx.width = intrinsics.width;
   ctx.height = intrinsics.height;
   ctx.fx = intrinsics.fx;

@@ -2,12 +2,12 @@
 
 #include <cstdint>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "core/types.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 
 namespace clutterseg::synth {
 

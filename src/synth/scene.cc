@@ -1,4 +1,4 @@
-#include "synth/scene.h"
+#include "clutterseg/synth/scene.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,14 +6,12 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "core/assert.h"
-#include "core/text_and_color.h"
-#include "synth/internal/random.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/core/text_and_color.h"
+#include "clutterseg/synth/random.h"
 
 namespace clutterseg::synth {
 namespace {
-
-using internal::Rng;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;

@@ -4,9 +4,9 @@
 #include <string>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
-#include "synth/pose.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/synth/pose.h"
 
 namespace clutterseg::synth {
 

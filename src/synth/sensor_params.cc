@@ -1,4 +1,4 @@
-#include "synth/sensor_params.h"
+#include "clutterseg/synth/sensor_params.h"
 
 #include <cmath>
 #include <sstream>

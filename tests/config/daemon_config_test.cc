@@ -1,4 +1,4 @@
-#include "config/daemon_config.h"
+#include "clutterseg/config/daemon_config.h"
 
 #include <algorithm>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-#include "core/point_cloud.h"
+#include "clutterseg/core/point_cloud.h"
 
 #include <cmath>
 #include <random>
@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
+#include "clutterseg/core/thread_pool.h"
 
 namespace clutterseg::core {
 namespace {

@@ -1,4 +1,4 @@
-#include "core/spsc_ring.h"
+#include "clutterseg/core/spsc_ring.h"
 
 #include <array>
 #include <atomic>
@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/frame_pool.h"
+#include "clutterseg/core/frame_pool.h"
 
 namespace clutterseg::core {
 namespace {

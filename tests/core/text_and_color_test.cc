@@ -1,4 +1,4 @@
-#include "core/text_and_color.h"
+#include "clutterseg/core/text_and_color.h"
 
 #include <algorithm>
 #include <string>

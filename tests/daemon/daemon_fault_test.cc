@@ -21,11 +21,11 @@
 
 #include <gtest/gtest.h>
 
+#include "clutterseg/daemon/daemon.h"
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/lcm_url.h"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
-#include "daemon/daemon.h"
-#include "daemon/lcm_bus.h"
-#include "daemon/lcm_url.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/daemon/scripted_source.h"
 #include "tests/testing/test_data.h"

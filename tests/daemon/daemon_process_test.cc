@@ -9,10 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include "clutterseg/daemon/daemon.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
-#include "daemon/daemon.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 

@@ -1,4 +1,4 @@
-#include "daemon/daemon.h"
+#include "clutterseg/daemon/daemon.h"
 
 #include <unistd.h>
 
@@ -13,12 +13,12 @@
 #include <gtest/gtest.h>
 #include <lcm/lcm-cpp.hpp>
 
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
-#include "daemon/lcm_bus.h"
-#include "daemon/messages.h"
-#include "drivers/openni2/openni2_source.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/daemon/scripted_source.h"
 #include "tests/testing/test_data.h"

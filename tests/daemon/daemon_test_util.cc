@@ -14,9 +14,9 @@
 #include <lcm/lcm-cpp.hpp>
 #include <sys/wait.h>
 
-#include "core/frame.h"
-#include "drivers/oni/oni_writer.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/core/frame.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon::testutil {

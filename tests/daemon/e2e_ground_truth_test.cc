@@ -18,14 +18,14 @@
 
 #include <gtest/gtest.h>
 
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/daemon/regress.h"
+#include "clutterseg/eval/metrics.h"
+#include "clutterseg/io/pcd.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
-#include "core/point_cloud.h"
-#include "core/types.h"
-#include "daemon/messages.h"
-#include "daemon/regress.h"
-#include "eval/metrics.h"
-#include "io/pcd.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 

@@ -1,4 +1,4 @@
-#include "daemon/latency_stats.h"
+#include "clutterseg/daemon/latency_stats.h"
 
 #include <gtest/gtest.h>
 

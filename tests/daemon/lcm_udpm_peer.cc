@@ -12,8 +12,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/objects_t.hpp"
-#include "daemon/lcm_bus.h"
 
 namespace {
 

@@ -1,4 +1,4 @@
-#include "daemon/regress.h"
+#include "clutterseg/daemon/regress.h"
 
 #include <cstdio>
 #include <filesystem>
@@ -6,10 +6,10 @@
 
 #include <gtest/gtest.h>
 
+#include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/messages.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
-#include "daemon/lcm_bus.h"
-#include "daemon/messages.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 

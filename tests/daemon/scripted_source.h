@@ -13,8 +13,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/frame_source.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/core/frame_source.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon::testutil {

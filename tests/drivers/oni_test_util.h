@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <string>
 
-#include "core/camera_intrinsics.h"
-#include "core/types.h"
-#include "drivers/oni/oni_writer.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
 
 namespace clutterseg::drivers::testutil {
 

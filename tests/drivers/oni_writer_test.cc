@@ -1,4 +1,4 @@
-#include "drivers/oni/oni_writer.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
 
 #include <cmath>
 #include <cstdio>
@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "drivers/oni/oni_reader.h"
+#include "clutterseg/drivers/oni/oni_reader.h"
 #include "oni_test_util.h"
 #include "tests/testing/test_data.h"
 

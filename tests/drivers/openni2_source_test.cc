@@ -1,4 +1,4 @@
-#include "drivers/openni2/openni2_source.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
 
 #include <OpenNI.h>
 
@@ -15,8 +15,8 @@
 
 #include <gtest/gtest.h>
 
-#include "drivers/oni/oni_reader.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/drivers/oni/oni_reader.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 #include "oni_test_util.h"
 #include "tests/testing/test_data.h"
 

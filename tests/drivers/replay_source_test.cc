@@ -6,14 +6,14 @@
 
 #include <gtest/gtest.h>
 
-#include "core/point_cloud.h"
-#include "drivers/replay/depth_png_source.h"
-#include "drivers/replay/pcd_directory_source.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/drivers/replay/depth_png_source.h"
+#include "clutterseg/drivers/replay/pcd_directory_source.h"
 #ifdef CLUTTERSEG_HAVE_SYNTHETIC_SOURCE
-#include "drivers/replay/synthetic_source.h"
+#include "clutterseg/drivers/replay/synthetic_source.h"
 #endif
-#include "io/pcd.h"
-#include "io/png_io.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::drivers {

@@ -1,4 +1,4 @@
-#include "eval/metrics.h"
+#include "clutterseg/eval/metrics.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/report.h"
+#include "clutterseg/eval/report.h"
 
 namespace clutterseg::eval {
 namespace {

@@ -6,8 +6,8 @@
 
 #include <gtest/gtest.h>
 
-#include "eval/metrics.h"
-#include "io/pcd.h"
+#include "clutterseg/eval/metrics.h"
+#include "clutterseg/io/pcd.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::eval {

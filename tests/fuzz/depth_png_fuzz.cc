@@ -11,7 +11,7 @@
 
 #include <sys/mman.h>
 
-#include "io/png_io.h"
+#include "clutterseg/io/png_io.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

@@ -11,13 +11,13 @@
 #include <string>
 #include <vector>
 
-#include "config/daemon_config.h"
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/types.h"
-#include "drivers/oni/oni_writer.h"
-#include "io/pcd.h"
-#include "io/png_io.h"
+#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/drivers/oni/oni_writer.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
 
 namespace clutterseg::fuzz {
 namespace {

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <stdexcept>
 
-#include "core/point_cloud.h"
-#include "io/pcd.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/io/pcd.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

@@ -9,10 +9,10 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/types.h"
-#include "pipeline/segmenter.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/pipeline/segmenter.h"
 #include "tests/fuzz/fuzz_check.h"
 
 namespace {

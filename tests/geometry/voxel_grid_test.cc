@@ -1,4 +1,4 @@
-#include "geometry/voxel_grid.h"
+#include "clutterseg/geometry/voxel_grid.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/camera_intrinsics.h"
-#include "core/thread_pool.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/thread_pool.h"
 
 namespace clutterseg::geometry {
 namespace {

@@ -1,4 +1,4 @@
-#include "graph/linkage.h"
+#include "clutterseg/graph/linkage.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "graph/patch_features.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/patch_features.h"
 #include "tests/graph/synthetic_tiles.h"
 
 namespace clutterseg::graph {

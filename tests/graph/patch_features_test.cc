@@ -1,4 +1,4 @@
-#include "graph/patch_features.h"
+#include "clutterseg/graph/patch_features.h"
 
 #include <cmath>
 #include <cstring>
@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tests/graph/synthetic_tiles.h"
 
 namespace clutterseg::graph {

@@ -3,9 +3,9 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/point_cloud.h"
-#include "core/types.h"
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::graph::testing {
 

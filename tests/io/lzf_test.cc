@@ -1,4 +1,4 @@
-#include "io/lzf.h"
+#include "clutterseg/io/lzf.h"
 
 #include <algorithm>
 #include <cstdint>

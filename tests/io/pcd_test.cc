@@ -1,4 +1,4 @@
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 
 #include <time.h>
 #include <unistd.h>
@@ -17,7 +17,7 @@
 
 #include <gtest/gtest.h>
 
-#include "io/lzf.h"
+#include "clutterseg/io/lzf.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::io {

@@ -8,7 +8,7 @@
 #include <pcl/io/pcd_io.h>
 #include <pcl/point_types.h>
 
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::io {

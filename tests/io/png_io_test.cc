@@ -1,4 +1,4 @@
-#include "io/png_io.h"
+#include "clutterseg/io/png_io.h"
 
 #include <png.h>
 
@@ -12,7 +12,7 @@
 
 #include <gtest/gtest.h>
 
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::io {

@@ -1,4 +1,4 @@
-#include "optimize/alpha_expansion.h"
+#include "clutterseg/optimize/alpha_expansion.h"
 
 #include <algorithm>
 #include <limits>

@@ -1,4 +1,4 @@
-#include "optimize/max_flow.h"
+#include "clutterseg/optimize/max_flow.h"
 
 #include <algorithm>
 #include <cmath>

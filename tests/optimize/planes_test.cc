@@ -1,4 +1,4 @@
-#include "optimize/planes.h"
+#include "clutterseg/optimize/planes.h"
 
 #include <chrono>
 #include <cmath>
@@ -9,9 +9,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "graph/linkage.h"
-#include "graph/patch_features.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/linkage.h"
+#include "clutterseg/graph/patch_features.h"
 #include "tests/graph/synthetic_tiles.h"
 
 namespace clutterseg::optimize {

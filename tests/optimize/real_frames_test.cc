@@ -7,12 +7,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "graph/linkage.h"
-#include "graph/patch_features.h"
-#include "io/pcd.h"
-#include "optimize/planes.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/graph/linkage.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/optimize/planes.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::optimize {

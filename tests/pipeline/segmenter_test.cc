@@ -1,4 +1,4 @@
-#include "pipeline/segmenter.h"
+#include "clutterseg/pipeline/segmenter.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,12 +10,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "eval/metrics.h"
-#include "io/pcd.h"
-#include "pipeline/overlay.h"
-#include "synth/renderer.h"
-#include "synth/scene.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/eval/metrics.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::pipeline {

@@ -15,12 +15,12 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "core/types.h"
-#include "pipeline/segmenter.h"
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
+#include "clutterseg/pipeline/segmenter.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::pipeline {
 namespace {

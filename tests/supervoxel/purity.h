@@ -6,7 +6,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "supervoxel/supervoxels.h"
+#include "clutterseg/supervoxel/supervoxels.h"
 
 namespace clutterseg::supervoxel {
 

@@ -7,11 +7,11 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/thread_pool.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tests/supervoxel/synthetic_scene.h"
 #ifdef CLUTTERSEG_HAVE_IO
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 #endif
 
 namespace clutterseg::supervoxel {

@@ -7,9 +7,9 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "io/pcd.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tests/supervoxel/purity.h"
 #include "tests/testing/test_data.h"
 

@@ -1,4 +1,4 @@
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
+#include "clutterseg/core/thread_pool.h"
 #include "tests/supervoxel/purity.h"
 #include "tests/supervoxel/synthetic_scene.h"
 

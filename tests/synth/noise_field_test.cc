@@ -1,11 +1,11 @@
-#include "synth/internal/noise_field.h"
+#include "clutterseg/synth/internal/noise_field.h"
 
 #include <cmath>
 #include <vector>
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
+#include "clutterseg/core/thread_pool.h"
 
 namespace clutterseg::synth::internal {
 namespace {

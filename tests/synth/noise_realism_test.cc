@@ -9,12 +9,12 @@
 
 #include <gtest/gtest.h>
 
-#include "core/point_cloud.h"
-#include "io/pcd.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 #include "surface_variation.h"
-#include "synth/renderer.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::synth {

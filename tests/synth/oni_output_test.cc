@@ -8,11 +8,11 @@
 
 #include <gtest/gtest.h>
 
-#include "core/frame.h"
-#include "core/point_cloud.h"
-#include "drivers/openni2/openni2_source.h"
-#include "io/pcd.h"
-#include "io/png_io.h"
+#include "clutterseg/core/frame.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/drivers/openni2/openni2_source.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
 #include "tests/testing/test_data.h"
 #include "tool_runner.h"
 

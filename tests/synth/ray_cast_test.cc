@@ -1,12 +1,12 @@
-#include "synth/internal/ray_cast.h"
+#include "clutterseg/synth/internal/ray_cast.h"
 
 #include <cmath>
 #include <limits>
 
 #include <gtest/gtest.h>
 
-#include "synth/internal/random.h"
-#include "synth/scene.h"
+#include "clutterseg/synth/random.h"
+#include "clutterseg/synth/scene.h"
 #include "test_scenes.h"
 
 namespace clutterseg::synth::internal {

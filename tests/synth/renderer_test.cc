@@ -1,4 +1,4 @@
-#include "synth/renderer.h"
+#include "clutterseg/synth/renderer.h"
 
 #include <cmath>
 #include <cstring>
@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "core/thread_pool.h"
-#include "synth/scene.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/synth/scene.h"
 #include "test_scenes.h"
 
 namespace clutterseg::synth {

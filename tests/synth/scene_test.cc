@@ -1,4 +1,4 @@
-#include "synth/scene.h"
+#include "clutterseg/synth/scene.h"
 
 #include <algorithm>
 #include <cmath>

@@ -5,9 +5,9 @@
 
 #include <gtest/gtest.h>
 
-#include "synth/renderer.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 #include "test_scenes.h"
 
 namespace clutterseg::synth {

@@ -10,7 +10,7 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "core/point_cloud.h"
+#include "clutterseg/core/point_cloud.h"
 
 namespace clutterseg::synth::testing {
 

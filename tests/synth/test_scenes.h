@@ -1,7 +1,7 @@
 #pragma once
 
-#include "synth/pose.h"
-#include "synth/scene.h"
+#include "clutterseg/synth/pose.h"
+#include "clutterseg/synth/scene.h"
 
 namespace clutterseg::synth::testing {
 

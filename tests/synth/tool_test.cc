@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "io/pcd.h"
+#include "clutterseg/io/pcd.h"
 #include "tests/testing/test_data.h"
 #include "tool_runner.h"
 

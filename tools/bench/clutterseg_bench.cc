@@ -23,11 +23,11 @@
 #include <CLI/CLI.hpp>
 #include <sys/resource.h>
 
-#include "config/segmenter_keys.h"
-#include "core/json_writer.h"
-#include "core/thread_pool.h"
-#include "pipeline/segmenter.h"
-#include "pipeline/segmenter_params.h"
+#include "clutterseg/config/segmenter_keys.h"
+#include "clutterseg/core/json_writer.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/pipeline/segmenter.h"
+#include "clutterseg/pipeline/segmenter_params.h"
 #include "tools/bench/alloc_counter.h"
 #include "tools/bench/frame_set.h"
 #if CLUTTERSEG_BENCH_HAVE_PCL

@@ -5,13 +5,13 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "core/text_and_color.h"
-#include "core/thread_pool.h"
-#include "io/pcd.h"
-#include "synth/internal/random.h"
-#include "synth/renderer.h"
-#include "synth/scene.h"
-#include "synth/sensor_params.h"
+#include "clutterseg/core/text_and_color.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/synth/random.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 
 namespace clutterseg::bench {
 
@@ -60,8 +60,8 @@ FrameSet RenderSyntheticFrames(int count, uint64_t seed, int threads) {
   core::ThreadPool pool(threads);
   synth::RenderedFrame frame;
   for (int s = 0; s < count; ++s) {
-    const uint64_t scene_seed = synth::internal::HashCounter(seed, static_cast<uint64_t>(s), 0);
-    const uint64_t noise_seed = synth::internal::HashCounter(seed, static_cast<uint64_t>(s), 1);
+    const uint64_t scene_seed = synth::HashCounter(seed, static_cast<uint64_t>(s), 0);
+    const uint64_t noise_seed = synth::HashCounter(seed, static_cast<uint64_t>(s), 1);
     const synth::Scene scene = synth::GenerateScene(scene_params, scene_seed);
     synth::RenderScene(scene, set.intrinsics, sensor, noise_seed, &frame, &pool);
     core::PointCloud cloud;

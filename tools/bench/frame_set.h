@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "core/camera_intrinsics.h"
-#include "core/point_cloud.h"
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
 
 // Input frames of the benchmarks: a directory of PCDs or synthetic renders.
 namespace clutterseg::bench {

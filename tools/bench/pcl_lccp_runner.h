@@ -3,7 +3,7 @@
 #include <cstddef>
 #include <memory>
 
-#include "core/point_cloud.h"
+#include "clutterseg/core/point_cloud.h"
 #include "tools/pcl_baseline/pcl_baseline.h"
 
 // PCL's supervoxels + LCCP on in-memory frames, for speed comparisons inside

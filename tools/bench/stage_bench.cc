@@ -16,23 +16,23 @@
 
 #include <benchmark/benchmark.h>
 
-#include "core/point_cloud.h"
-#include "core/thread_pool.h"
-#include "geometry/voxel_grid.h"
-#include "graph/linkage.h"
-#include "graph/patch_features.h"
-#include "io/pcd.h"
-#include "optimize/planes.h"
-#include "pipeline/objects.h"
-#include "pipeline/refine.h"
-#include "pipeline/segmenter.h"
-#include "pipeline/segmenter_params.h"
-#include "supervoxel/supervoxelizer.h"
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
+#include "clutterseg/geometry/voxel_grid.h"
+#include "clutterseg/graph/linkage.h"
+#include "clutterseg/graph/patch_features.h"
+#include "clutterseg/io/pcd.h"
+#include "clutterseg/optimize/planes.h"
+#include "clutterseg/pipeline/objects.h"
+#include "clutterseg/pipeline/refine.h"
+#include "clutterseg/pipeline/segmenter.h"
+#include "clutterseg/pipeline/segmenter_params.h"
+#include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tools/bench/frame_set.h"
 #if CLUTTERSEG_BENCH_HAVE_DAEMON
+#include "clutterseg/daemon/messages.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
-#include "daemon/messages.h"
 #endif
 
 namespace clutterseg::bench {

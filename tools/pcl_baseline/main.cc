@@ -15,7 +15,7 @@
 #include <CLI/CLI.hpp>
 #include <pcl/console/print.h>
 
-#include "core/text_and_color.h"
+#include "clutterseg/core/text_and_color.h"
 #include "tools/pcl_baseline/pcl_baseline.h"
 
 namespace clutterseg::pcl_baseline {

@@ -1,4 +1,4 @@
-#include "io/internal/json.h"
+#include "clutterseg/io/internal/json.h"
 
 #include <charconv>
 #include <cmath>

@@ -1,11 +1,11 @@
-#include "synth/internal/noise_field.h"
+#include "clutterseg/synth/internal/noise_field.h"
 
 #include <algorithm>
 #include <cmath>
 #include <functional>
 
-#include "core/assert.h"
-#include "synth/internal/random.h"
+#include "clutterseg/core/assert.h"
+#include "clutterseg/synth/random.h"
 
 namespace clutterseg::synth::internal {
 namespace {

@@ -3,7 +3,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/thread_pool.h"
+#include "clutterseg/core/thread_pool.h"
 
 namespace clutterseg::synth::internal {
 

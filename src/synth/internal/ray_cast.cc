@@ -1,4 +1,4 @@
-#include "synth/internal/ray_cast.h"
+#include "clutterseg/synth/internal/ray_cast.h"
 
 #include <algorithm>
 #include <cmath>

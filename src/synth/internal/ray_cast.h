@@ -2,8 +2,8 @@
 
 #include <vector>
 
-#include "synth/pose.h"
-#include "synth/scene.h"
+#include "clutterseg/synth/pose.h"
+#include "clutterseg/synth/scene.h"
 
 namespace clutterseg::synth::internal {
 

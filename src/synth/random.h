@@ -3,7 +3,7 @@
 #include <cmath>
 #include <cstdint>
 
-namespace clutterseg::synth::internal {
+namespace clutterseg::synth {
 
 /// SplitMix64 finaliser: a bijective 64-bit mix with good avalanche.
 inline uint64_t Mix64(uint64_t x) {
@@ -69,4 +69,4 @@ class Rng {
   uint64_t state_;
 };
 
-}  // namespace clutterseg::synth::internal
+}  // namespace clutterseg::synth

@@ -4,7 +4,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace clutterseg::geometry::internal {
+namespace clutterseg::geometry {
 
 /// An open-addressing (linear probing) hash map from 64-bit keys to 32-bit indices, for the
 /// voxel and seed-cell lookups of one frame. Clear() keeps the storage, so a map reused across
@@ -105,4 +105,4 @@ class KeyIndexMap {
   size_t size_{0};
 };
 
-}  // namespace clutterseg::geometry::internal
+}  // namespace clutterseg::geometry
