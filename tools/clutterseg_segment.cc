@@ -17,12 +17,13 @@
 
 #include <CLI/CLI.hpp>
 
-#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/config/segmenter_keys.h"
 #include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/io/pcd.h"
 #include "clutterseg/io/png_io.h"
+#include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/pipeline/segmenter.h"
 
@@ -50,6 +51,15 @@ struct Options {
   int lanes{0};
   bool quiet{false};
 };
+
+// Every stage of pipeline::StageTable() and the total, as fields "<name><suffix>".
+void WriteStageTimes(const pipeline::StageTimes& t, const std::string& suffix,
+                     core::JsonWriter* j) {
+  for (size_t i = 0; i < pipeline::kNumStages; ++i) {
+    j->Field(std::string(pipeline::StageTable()[i].name) + suffix, t.ms[i]);
+  }
+  j->Field("total" + suffix, t.total_ms);
+}
 
 void WriteObjectsJson(const std::string& path, const std::string& source,
                       const pipeline::SegmentationResult& r) {
@@ -90,11 +100,7 @@ void WriteObjectsJson(const std::string& path, const std::string& source,
   }
   j.EndArray();
   j.Key("times_ms").BeginObject();
-  const pipeline::StageTimes& t = r.times;
-  j.Field("points", t.points_ms).Field("supervoxels", t.supervoxels_ms);
-  j.Field("voxelize", t.voxelize_ms).Field("normals", t.normals_ms);
-  j.Field("features", t.features_ms).Field("linkage", t.linkage_ms);
-  j.Field("planes", t.planes_ms).Field("objects", t.objects_ms).Field("total", t.total_ms);
+  WriteStageTimes(r.times, "", &j);
   j.EndObject();
   j.EndObject();
   std::ofstream f(path);
@@ -164,13 +170,9 @@ int main(int argc, char** argv) {
 
   pipeline::SegmenterParams params;
   try {
-    config::DaemonConfig cfg;
-    if (!opt.config_file.empty()) cfg = config::LoadConfig(opt.config_file);
-    for (const std::string& o : opt.overrides) {
-      config::ApplyOverride(o.rfind("segmenter.", 0) == 0 ? o : "segmenter." + o, &cfg);
-    }
-    cfg.segmenter.ValidateOrThrow();
-    params = cfg.segmenter;
+    if (!opt.config_file.empty()) config::LoadSegmenterParams(opt.config_file, &params);
+    for (const std::string& o : opt.overrides) config::ApplySegmenterOverride(o, &params);
+    params.ValidateOrThrow();
   } catch (const std::exception& e) {
     std::cerr << "clutterseg-segment: " << e.what() << "\n";
     return kExitUsage;
@@ -223,128 +225,86 @@ int main(int argc, char** argv) {
     jobs.push_back(Job{opt.input, opt.output, opt.json_out, opt.png_out});
   }
 
-  // Frames are segmented by `lanes` threads at once (each with its own Segmenter): loading,
-  // segmenting and writing of one frame overlap with the others. Results
-  // are reported in input order and do not depend on the number of lanes.
-  core::ThreadPool pool(opt.threads);
-  const int lanes =
-      std::max(1, std::min(opt.lanes > 0 ? opt.lanes : std::min(pool.num_threads(), 2),
-                           static_cast<int>(jobs.size())));
-  struct Lane {
-    explicit Lane(const pipeline::SegmenterParams& p, core::ThreadPool* pool)
-        : segmenter(p, pool) {}
-    pipeline::Segmenter segmenter;
-    core::PointCloud cloud;
-    pipeline::SegmentationResult result;
-    core::ColorImage base, overlay;
-  };
-  std::vector<std::unique_ptr<Lane>> lane_state;
-  // With several lanes every core already runs one: fanning out inside a frame as well would
-  // only add threads (measured 10 % slower). The output is the same either way.
-  for (int l = 0; l < lanes; ++l) {
-    lane_state.push_back(std::make_unique<Lane>(params, lanes > 1 ? nullptr : &pool));
+  // Frames are segmented on `lanes` lanes at once (pipeline::FrameRunner, each lane with its
+  // own Segmenter): loading, segmenting and writing of one frame overlap with the others.
+  // Results are reported in input order and do not depend on the number of lanes.
+  pipeline::FrameRunnerParams runner_params;
+  runner_params.threads = opt.threads;
+  runner_params.policy = pipeline::DispatchPolicy::kThroughput;
+  {
+    const int cores = opt.threads > 0
+                          ? opt.threads
+                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+    runner_params.pipeline_depth = std::max(
+        1, std::min(opt.lanes > 0 ? opt.lanes : std::min(cores, 2), static_cast<int>(jobs.size())));
   }
-
-  struct Report {
-    bool done{false};
-    bool failed{false};
+  // Per-lane buffers (index = lane): a PCD after another allocates nothing.
+  struct LaneBuffers {
+    core::PointCloud cloud;
+    core::ColorImage base, overlay;
     std::string message;     // progress line or error
     std::string times_line;  // --times JSON line
-    double ms{0.0};
-    size_t objects{0};
   };
-  std::vector<Report> reports(jobs.size());
-  std::mutex report_mutex;
-  std::condition_variable report_cv;
-  std::atomic<size_t> next_job{0};
-
-  auto run_lane = [&](Lane* lane) {
-    for (;;) {
-      const size_t index = next_job.fetch_add(1);
-      if (index >= jobs.size()) return;
-      const Job& job = jobs[index];
-      Report rep;
-      try {
-        core::CameraIntrinsics k;
-        core::PointCloud& cloud = lane->cloud;
-        LoadInput(job.in, opt, &cloud, &k);
-        pipeline::SegmentationResult& result = lane->result;
-        lane->segmenter.Process(cloud, k, &result);
-        rep.ms = result.times.total_ms;
-        rep.objects = result.objects.size();
-        cloud.label = result.labels.data;
-        io::WritePcd(job.out.string(), cloud, io::PcdEncoding::kBinary);
-        if (!job.json.empty()) WriteObjectsJson(job.json.string(), job.in.string(), result);
-        if (!job.png.empty()) {
-          pipeline::CloudToImage(cloud, &lane->base);
-          pipeline::RenderOverlay(result.labels, &lane->base, &lane->overlay);
-          io::WriteColorPng(job.png.string(), lane->overlay);
-        }
-        const pipeline::StageTimes& t = result.times;
-        core::JsonWriter j;
-        j.BeginObject().Field("file", job.in.filename().string());
-        j.Field("points_ms", t.points_ms).Field("voxelize_ms", t.voxelize_ms);
-        j.Field("normals_ms", t.normals_ms).Field("supervoxels_ms", t.supervoxels_ms);
-        j.Field("features_ms", t.features_ms).Field("linkage_ms", t.linkage_ms);
-        j.Field("planes_ms", t.planes_ms).Field("objects_ms", t.objects_ms);
-        j.Field("total_ms", t.total_ms).Field("objects", static_cast<uint64_t>(rep.objects));
-        j.EndObject();
-        rep.times_line = j.str();
-        char line[512];
-        std::snprintf(line, sizeof(line), "%s: %zu objects, %u supervoxels, %.1f ms",
-                      job.in.filename().c_str(), result.objects.size(), result.num_supervoxels,
-                      result.times.total_ms);
-        rep.message = line;
-      } catch (const std::exception& e) {
-        rep.failed = true;
-        rep.message = std::string("clutterseg-segment: ") + e.what();
-      } catch (...) {
-        rep.failed = true;
-        rep.message = "clutterseg-segment: " + job.in.string() + ": unknown error";
-      }
-      rep.done = true;
-      {
-        std::lock_guard<std::mutex> lock(report_mutex);
-        reports[index] = std::move(rep);
-      }
-      report_cv.notify_all();
-    }
-  };
+  std::vector<LaneBuffers> buffers(static_cast<size_t>(runner_params.pipeline_depth));
 
   std::ofstream times;
   if (!opt.times_out.empty()) times.open(opt.times_out, std::ios::app);
-  const auto wall_start = std::chrono::steady_clock::now();
-  std::vector<std::thread> threads;
-  for (int l = 1; l < lanes; ++l) threads.emplace_back(run_lane, lane_state[l].get());
-  // The main thread is lane 0 when there is one lane; otherwise it reports in order.
-  if (lanes == 1)
-    run_lane(lane_state[0].get());
-  else
-    threads.emplace_back(run_lane, lane_state[0].get());
-
   double total_ms = 0.0;
   size_t total_objects = 0;
   int failures = 0;
-  for (size_t i = 0; i < jobs.size(); ++i) {
-    Report rep;
-    {
-      std::unique_lock<std::mutex> lock(report_mutex);
-      report_cv.wait(lock, [&] { return reports[i].done; });
-      rep = std::move(reports[i]);
+  auto work = [&](const pipeline::FrameRunner::Lane& lane, uint64_t index) {
+    const Job& job = jobs[index];
+    LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
+    core::CameraIntrinsics k;
+    LoadInput(job.in, opt, &b.cloud, &k);
+    pipeline::SegmentationResult& result = *lane.result;
+    lane.segmenter->Process(b.cloud, k, &result);
+    b.cloud.label = result.labels.data;
+    io::WritePcd(job.out.string(), b.cloud, io::PcdEncoding::kBinary);
+    if (!job.json.empty()) WriteObjectsJson(job.json.string(), job.in.string(), result);
+    if (!job.png.empty()) {
+      pipeline::CloudToImage(b.cloud, &b.base);
+      pipeline::RenderOverlay(result.labels, &b.base, &b.overlay);
+      io::WriteColorPng(job.png.string(), b.overlay);
     }
-    if (rep.failed) {
-      std::cerr << rep.message << "\n";
+    core::JsonWriter j;
+    j.BeginObject().Field("file", job.in.filename().string());
+    WriteStageTimes(result.times, "_ms", &j);
+    j.Field("objects", static_cast<uint64_t>(result.objects.size()));
+    j.EndObject();
+    b.times_line = j.str();
+    char line[512];
+    std::snprintf(line, sizeof(line), "%s: %zu objects, %u supervoxels, %.1f ms",
+                  job.in.filename().c_str(), result.objects.size(), result.num_supervoxels,
+                  result.times.total_ms);
+    b.message = line;
+  };
+  // In input order, on one lane thread at a time.
+  auto done = [&](const pipeline::FrameRunner::Lane& lane, uint64_t index,
+                  const std::string* error) {
+    if (error != nullptr) {
+      std::cerr << "clutterseg-segment: " << *error << "\n";
       ++failures;
-      continue;
+      return;
     }
-    total_ms += rep.ms;
-    total_objects += rep.objects;
-    if (times.is_open()) times << rep.times_line << "\n";
-    if (!opt.quiet) std::fprintf(stderr, "%s\n", rep.message.c_str());
+    (void)index;
+    const LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
+    total_ms += lane.result->times.total_ms;
+    total_objects += lane.result->objects.size();
+    if (times.is_open()) times << b.times_line << "\n";
+    if (!opt.quiet) std::fprintf(stderr, "%s\n", b.message.c_str());
+  };
+  const auto wall_start = std::chrono::steady_clock::now();
+  int threads_used = 1;
+  {
+    pipeline::FrameRunner runner(params, runner_params, work, done);
+    threads_used = runner.pool() != nullptr ? runner.pool()->num_threads() : 1;
+    for (size_t i = 0; i < jobs.size(); ++i) runner.Submit(i);
+    runner.Drain();
   }
-  for (std::thread& t : threads) t.join();
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const int lanes = runner_params.pipeline_depth;
 
   core::JsonWriter j;
   j.BeginObject().Field("frames", static_cast<uint64_t>(jobs.size()));
@@ -355,7 +315,7 @@ int main(int argc, char** argv) {
                          ? 0.0
                          : total_ms / static_cast<double>(jobs.size() - failures));
   j.Field("wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size());
-  j.Field("threads", pool.num_threads()).Field("lanes", lanes).EndObject();
+  j.Field("threads", threads_used).Field("lanes", lanes).EndObject();
   std::cout << j.str() << std::endl;
   return failures == 0 ? kExitOk : kExitData;
 }

@@ -221,19 +221,21 @@ core::ReadStatus PcdDirectorySource::Read(int /*timeout_ms*/, core::RgbdFrame* f
     next_ = 0;
   }
   const std::string& file = files_[next_++];
+  core::PointCloud& cloud = frame->cloud;
   try {
-    io::ReadPcd(file, {}, &cloud_);  // reuses the cloud's buffers
+    io::ReadPcd(file, {}, &cloud);  // reuses the frame's buffers
   } catch (const std::exception& e) {
     error_ = e.what();
     return core::ReadStatus::kError;
   }
-  if (cloud_.organized() &&
-      (cloud_.width != intrinsics_.width || cloud_.height != intrinsics_.height)) {
-    frame->intrinsics = intrinsics_.Scaled(cloud_.width, cloud_.height);
+  if (cloud.organized() &&
+      (cloud.width != intrinsics_.width || cloud.height != intrinsics_.height)) {
+    frame->intrinsics = intrinsics_.Scaled(cloud.width, cloud.height);
   } else {
     frame->intrinsics = intrinsics_;
   }
-  CloudToDepth(cloud_, frame->intrinsics, &frame->depth, &frame->color);
+  // The cloud is what gets segmented; its depth image serves display and recording.
+  CloudToDepth(cloud, frame->intrinsics, &frame->depth, &frame->color);
   core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
   return core::ReadStatus::kOk;
 }

@@ -44,9 +44,10 @@ core::CameraIntrinsics EstimateIntrinsics(const core::PointCloud& cloud, double*
 void CloudToDepth(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
                   core::DepthImage* depth, core::ColorImage* color);
 
-/// A core::FrameSource replaying PCD files (e.g. the mOSD / OSD data sets) as RGB-D frames,
-/// so that the pipeline's back-projection reproduces the clouds' xyz within the 1 mm depth
-/// quantisation. Thread-safety: as core::FrameSource.
+/// A core::FrameSource replaying PCD files (e.g. the mOSD / OSD data sets): each frame carries
+/// the file's cloud as it is (RgbdFrame::cloud, organized or not, so that the daemon segments
+/// exactly what clutterseg-segment segments) and its depth and colour images (CloudToDepth),
+/// for display and recording. Thread-safety: as core::FrameSource.
 class PcdDirectorySource final : public core::FrameSource {
  public:
   /// @throws std::invalid_argument when `options` are invalid.

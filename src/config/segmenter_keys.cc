@@ -4,22 +4,28 @@ namespace clutterseg::config {
 
 // The one place that maps YAML keys under `segmenter:` to pipeline::SegmenterParams fields.
 // Key path = "<section>.<field>"; the type (bool, int, float, ...) comes from the field.
-#define CLUTTERSEG_SEGMENTER_KEY(section, field)                              \
-  internal::MakeKey(#section "." #field, &pipeline::SegmenterParams::section, \
-                    &decltype(pipeline::SegmenterParams::section)::field)
+#define CLUTTERSEG_SEGMENTER_KEY(section, field)                    \
+  MakeKey(#section "." #field, &pipeline::SegmenterParams::section, \
+          &decltype(pipeline::SegmenterParams::section)::field)
+// The voxel grid's fields, written in the supervoxel section.
+#define CLUTTERSEG_GRID_KEY(field)          \
+  MakeAccessKey<pipeline::SegmenterParams>( \
+      "supervoxel." #field, [](auto& p) -> auto& { return p.supervoxel.grid.field; })
 
-const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
-  static const std::vector<internal::Key<pipeline::SegmenterParams>> kKeys = {
-      CLUTTERSEG_SEGMENTER_KEY(supervoxel, voxel_resolution_m),
+const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
+  static const std::vector<Key<pipeline::SegmenterParams>> kKeys = {
+      CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
+      CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),
+
+      CLUTTERSEG_GRID_KEY(voxel_resolution_m),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, seed_resolution_m),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, color_importance),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, spatial_importance),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, normal_importance),
-      CLUTTERSEG_SEGMENTER_KEY(supervoxel, use_single_camera_transform),
+      CLUTTERSEG_GRID_KEY(use_single_camera_transform),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, refinement_iterations),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, growth_regions),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, min_seed_occupancy),
-      CLUTTERSEG_SEGMENTER_KEY(supervoxel, max_depth_m),
 
       CLUTTERSEG_SEGMENTER_KEY(linkage, concavity_tolerance_deg),
       CLUTTERSEG_SEGMENTER_KEY(linkage, use_sanity_criterion),
@@ -52,12 +58,29 @@ const std::vector<internal::Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, support_min_area_m2),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_snap_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, below_support_margin_m),
-      CLUTTERSEG_SEGMENTER_KEY(objects, min_depth_m),
-      CLUTTERSEG_SEGMENTER_KEY(objects, max_depth_m),
   };
   return kKeys;
 }
 
+#undef CLUTTERSEG_GRID_KEY
 #undef CLUTTERSEG_SEGMENTER_KEY
+
+const KeyTable<pipeline::SegmenterParams>& SegmenterKeyTable() {
+  static const KeyTable<pipeline::SegmenterParams> kTable = [] {
+    std::vector<Key<pipeline::SegmenterParams>> keys;
+    for (const auto& k : SegmenterKeys()) keys.push_back({"segmenter." + k.path, k.set, k.get});
+    return KeyTable<pipeline::SegmenterParams>(std::move(keys));
+  }();
+  return kTable;
+}
+
+void LoadSegmenterParams(const std::string& path, pipeline::SegmenterParams* params) {
+  SegmenterKeyTable().LoadYaml(path, params, "segmenter");
+}
+
+void ApplySegmenterOverride(const std::string& assignment, pipeline::SegmenterParams* params) {
+  SegmenterKeyTable().ApplyOverride(
+      assignment.rfind("segmenter.", 0) == 0 ? assignment : "segmenter." + assignment, params);
+}
 
 }  // namespace clutterseg::config

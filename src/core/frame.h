@@ -4,11 +4,13 @@
 #include <string>
 
 #include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/types.h"
 
 namespace clutterseg::core {
 
-/// One capture from an RGB-D source: depth (mm) optionally with colour registered to it.
+/// One capture from an RGB-D source: depth (mm) optionally with colour registered to it, or
+/// a point cloud.
 /// Frames live in a preallocated pool and are reused; assigning one to another reuses the
 /// destination's buffers.
 struct RgbdFrame {
@@ -18,6 +20,10 @@ struct RgbdFrame {
   CameraIntrinsics intrinsics;
   DepthImage depth;  ///< millimetres, 0 = invalid
   ColorImage color;  ///< empty when the source has no colour
+  /// The source's own points when it has them (PCD files, organized or not): then this cloud
+  /// is segmented as it is, and depth / colour are only its image for display and recording.
+  /// Empty for cameras and recordings, which deliver depth.
+  PointCloud cloud;
   std::string camera_name{"camera"};
 };
 

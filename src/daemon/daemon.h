@@ -6,8 +6,10 @@
 #include <stdexcept>
 #include <string>
 
-#include "clutterseg/config/daemon_config.h"
 #include "clutterseg/core/frame_source.h"
+#include "clutterseg/daemon/capture.h"
+#include "clutterseg/daemon/daemon_config.h"
+#include "clutterseg/daemon/status_reporter.h"
 #include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::daemon {
@@ -29,22 +31,16 @@ class SourceOpenError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// State of the frame source as reported in status_t.device_state.
-enum class DeviceState : int8_t {
-  kStarting = 0,
-  kStreaming = 1,
-  kReconnecting = 2,
-  kEndOfStream = 3,
-  kError = 4,
-};
-const char* ToString(DeviceState state);
-
 /// A snapshot of the daemon's counters.
 struct DaemonStats {
-  uint64_t frames_captured{0};   ///< frames read from the source
-  uint64_t frames_processed{0};  ///< frames segmented
-  uint64_t frames_published{0};  ///< objects_t messages published
-  uint64_t frames_dropped{0};    ///< dropped by the frame queue (oldest first)
+  uint64_t frames_captured{0};         ///< frames read from the source
+  uint64_t frames_processed{0};        ///< frames segmented
+  uint64_t frames_published{0};        ///< objects_t messages the transport accepted
+  uint64_t frames_dropped{0};          ///< dropped by the frame queue (oldest first)
+  uint64_t frames_publish_dropped{0};  ///< dropped in front of a transport that fell behind
+  uint64_t overlays_written{0};
+  uint64_t overlays_dropped{0};  ///< dropped in front of a disk that fell behind
+  uint64_t overlay_failures{0};  ///< overlay PNGs that could not be written
   uint64_t frames_discarded{0};  ///< waiting frames not processed because of a stop request
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
@@ -52,11 +48,13 @@ struct DaemonStats {
   DeviceState device_state{DeviceState::kStarting};
 };
 
-/// The running daemon: a capture thread (FrameSource -> drop-oldest frame queue), a dispatcher
-/// and `pipeline_depth` lanes that segment consecutive frames concurrently (one Segmenter
-/// each, sharing one ThreadPool for the work inside a frame), and a publisher thread that
-/// publishes objects_t / label_image_t in frame order and status_t every status period (plus
-/// one status line on stderr).
+/// The running daemon, a source, a runner and sinks: Capture (FrameSource -> drop-oldest
+/// frame queue), a dispatcher handing frames to a pipeline::FrameRunner (`pipeline_depth`
+/// lanes segmenting consecutive frames, one Segmenter each, sharing one ThreadPool), whose
+/// ordered completion feeds the sinks: LcmPublisher (objects_t / label_image_t in frame
+/// order, status_t), OverlayWriter (PNGs) and StatusReporter (status every period, the
+/// stderr status line). Each sink that can block has its own bounded queue and drops and
+/// counts rather than delaying the frames behind it.
 ///
 /// Live sources never block on processing (the queue drops the oldest frame); sources that
 /// are not live (recordings in lockstep) wait for room instead, so every frame is published.
@@ -74,8 +72,7 @@ class Daemon {
 
   /// `bus` must outlive the daemon and is used only by its publisher thread once started.
   /// @throws std::invalid_argument when `config` is invalid.
-  Daemon(const config::DaemonConfig& config, std::unique_ptr<core::FrameSource> source,
-         LcmBus* bus);
+  Daemon(const DaemonConfig& config, std::unique_ptr<core::FrameSource> source, LcmBus* bus);
   /// Requests a stop and joins all threads.
   ~Daemon();
 
@@ -101,6 +98,8 @@ class Daemon {
   DaemonStats stats() const;
   /// Description of the source, e.g. for logs.
   std::string source_description() const;
+  /// Latency percentiles over the whole run (valid once finished), for the summary line.
+  RunLatency run_latency() const;
 
  private:
   struct Impl;

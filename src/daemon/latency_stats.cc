@@ -40,4 +40,28 @@ LatencySummary LatencyWindow::TakeSummary() {
   return s;
 }
 
+LatencyHistogram::LatencyHistogram() : bins_(kBins + 1, 0) {}
+
+void LatencyHistogram::Add(double ms) {
+  if (!(ms >= 0.0)) ms = 0.0;
+  const double bin = std::floor(ms / kBinMs);
+  bins_[bin < static_cast<double>(kBins) ? static_cast<size_t>(bin) : kBins] += 1;
+  ++count_;
+  sum_ms_ += ms;
+  max_ms_ = std::max(max_ms_, ms);
+}
+
+double LatencyHistogram::Percentile(double q) const {
+  if (count_ == 0) return 0.0;
+  const auto rank = static_cast<uint64_t>(std::ceil(q * static_cast<double>(count_)));
+  uint64_t seen = 0;
+  for (size_t b = 0; b < kBins; ++b) {
+    seen += bins_[b];
+    if (seen >= rank && bins_[b] > 0) {
+      return std::min(max_ms_, static_cast<double>(b + 1) * kBinMs);
+    }
+  }
+  return max_ms_;
+}
+
 }  // namespace clutterseg::daemon

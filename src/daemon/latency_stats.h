@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace clutterseg::daemon {
@@ -28,6 +29,29 @@ class LatencyWindow {
   std::vector<double> scratch_;
   size_t next_{0};
   size_t count_{0};
+};
+
+/// Latencies over a whole run, for the end-of-run summary: a fixed histogram of 0.05 ms bins
+/// up to 2 s (and one overflow bin), so a run of days costs the same 320 kB as a run of
+/// seconds. Percentiles are the upper edge of the bin holding the nearest-rank sample
+/// (at most 0.05 ms above it; above 2 s, the largest sample). Thread-safety: none.
+class LatencyHistogram {
+ public:
+  LatencyHistogram();
+  void Add(double ms);
+  uint64_t count() const { return count_; }
+  /// Nearest-rank percentile `q` in (0, 1], milliseconds; 0 without samples.
+  double Percentile(double q) const;
+  double max_ms() const { return max_ms_; }
+  double mean_ms() const { return count_ > 0 ? sum_ms_ / static_cast<double>(count_) : 0.0; }
+
+ private:
+  static constexpr double kBinMs = 0.05;
+  static constexpr size_t kBins = 40000;  // 2 s
+  std::vector<uint64_t> bins_;            // kBins + overflow
+  uint64_t count_{0};
+  double sum_ms_{0.0};
+  double max_ms_{0.0};
 };
 
 }  // namespace clutterseg::daemon

@@ -5,16 +5,30 @@
 
 namespace clutterseg::daemon {
 namespace {
-std::atomic<int> g_level{static_cast<int>(config::LogLevel::kInfo)};
+std::atomic<int> g_level{static_cast<int>(LogLevel::kInfo)};
 }  // namespace
 
-void SetLogLevel(config::LogLevel level) { g_level.store(static_cast<int>(level)); }
+const char* ToString(LogLevel level) {
+  switch (level) {
+    case LogLevel::kDebug:
+      return "debug";
+    case LogLevel::kInfo:
+      return "info";
+    case LogLevel::kWarn:
+      return "warn";
+    case LogLevel::kError:
+      return "error";
+  }
+  return "info";
+}
 
-bool LogEnabled(config::LogLevel level) { return static_cast<int>(level) >= g_level.load(); }
+void SetLogLevel(LogLevel level) { g_level.store(static_cast<int>(level)); }
 
-void Log(config::LogLevel level, const std::string& message) {
+bool LogEnabled(LogLevel level) { return static_cast<int>(level) >= g_level.load(); }
+
+void Log(LogLevel level, const std::string& message) {
   if (!LogEnabled(level)) return;
-  std::fprintf(stderr, "clutterseg: %s: %s\n", config::ToString(level), message.c_str());
+  std::fprintf(stderr, "clutterseg: %s: %s\n", ToString(level), message.c_str());
 }
 
 }  // namespace clutterseg::daemon

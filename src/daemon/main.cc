@@ -20,8 +20,8 @@
 #include <CLI/CLI.hpp>
 #include <sys/signalfd.h>
 
-#include "clutterseg/config/daemon_config.h"
 #include "clutterseg/daemon/daemon.h"
+#include "clutterseg/daemon/daemon_config.h"
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/lcm_url.h"
 #include "clutterseg/daemon/log.h"
@@ -29,8 +29,6 @@
 
 namespace clutterseg::daemon {
 namespace {
-
-using config::LogLevel;
 
 struct CommandLine {
   std::string config_path;
@@ -47,23 +45,22 @@ struct CommandLine {
 };
 
 // The configuration: file (or defaults), then command-line options, then --set overrides.
-// @throws config::ConfigError.
-config::DaemonConfig BuildConfig(const CommandLine& cl) {
-  config::DaemonConfig c =
-      cl.config_path.empty() ? config::DaemonConfig{} : config::LoadConfig(cl.config_path);
-  if (!cl.source.empty()) config::SetKey("source", cl.source, &c);
-  if (!cl.speed.empty()) config::SetKey("speed", cl.speed, &c);
-  if (!cl.lcm_url.empty()) config::SetKey("lcm.url", cl.lcm_url, &c);
-  if (cl.max_frames >= 0) c.max_frames = cl.max_frames;
-  if (!cl.png_dir.empty()) c.png_dir = cl.png_dir;
-  if (!cl.log_level.empty()) config::SetKey("log.level", cl.log_level, &c);
-  if (cl.threads >= 0) c.threads = cl.threads;
-  if (cl.loop) c.loop = true;
-  for (const std::string& s : cl.sets) config::ApplyOverride(s, &c);
+// @throws ConfigError.
+DaemonConfig BuildConfig(const CommandLine& cl) {
+  DaemonConfig c = cl.config_path.empty() ? DaemonConfig{} : LoadConfig(cl.config_path);
+  if (!cl.source.empty()) SetKey("source", cl.source, &c);
+  if (!cl.speed.empty()) SetKey("speed", cl.speed, &c);
+  if (!cl.lcm_url.empty()) SetKey("lcm.url", cl.lcm_url, &c);
+  if (cl.max_frames >= 0) c.capture.max_frames = cl.max_frames;
+  if (!cl.png_dir.empty()) c.overlay.png_dir = cl.png_dir;
+  if (!cl.log_level.empty()) SetKey("log.level", cl.log_level, &c);
+  if (cl.threads >= 0) c.processing.threads = cl.threads;
+  if (cl.loop) c.capture.loop = true;
+  for (const std::string& s : cl.sets) ApplyOverride(s, &c);
   try {
     c.ValidateOrThrow();
   } catch (const std::invalid_argument& e) {
-    throw config::ConfigError(std::string("command line: ") + e.what());
+    throw ConfigError(std::string("command line: ") + e.what());
   }
   return c;
 }
@@ -82,7 +79,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
             Log(LogLevel::kWarn, "SIGHUP: no --config file, nothing to reload");
           } else {
             try {
-              const config::DaemonConfig fresh = BuildConfig(cl);
+              const DaemonConfig fresh = BuildConfig(cl);
               daemon->UpdateSegmenterParams(fresh.segmenter);
               Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
                                        " (applied from the next frame)");
@@ -159,27 +156,27 @@ int Run(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitBadConfig;
   }
 
-  config::DaemonConfig cfg;
+  DaemonConfig cfg;
   try {
     cfg = BuildConfig(cl);
-  } catch (const config::ConfigError& e) {
+  } catch (const ConfigError& e) {
     std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
     return kExitBadConfig;
   }
   if (cl.print_config) {
-    std::fputs(config::ConfigToYaml(cfg).c_str(), stdout);
+    std::fputs(ConfigToYaml(cfg).c_str(), stdout);
     return kExitOk;
   }
   SetLogLevel(cfg.log_level);
 
-  if (const std::string why = CheckLcmUrl(cfg.lcm_url); !why.empty()) {
+  if (const std::string why = CheckLcmUrl(cfg.lcm.url); !why.empty()) {
     std::fprintf(stderr, "clutterseg: configuration error: lcm.url = '%s': %s\n",
-                 cfg.lcm_url.c_str(), why.c_str());
+                 cfg.lcm.url.c_str(), why.c_str());
     return kExitBadConfig;
   }
   std::unique_ptr<LcmBus> bus;
   try {
-    bus = std::make_unique<LcmBus>(cfg.lcm_url);
+    bus = std::make_unique<LcmBus>(cfg.lcm.url);
   } catch (const LcmUnavailableError& e) {
     std::fprintf(stderr, "clutterseg: %s\n", e.what());
     return kExitLcmUnavailable;
@@ -221,17 +218,33 @@ int Run(int argc, char** argv) {
       return kExitSourceUnavailable;
     }
     Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
-                             cfg.objects_channel + ")");
+                             cfg.lcm.objects_channel + ")");
     RunUntilDone(cl, signal_fd, daemon.get());
     daemon->Join();
     code = daemon->exit_code();
     const DaemonStats s = daemon->stats();
-    Log(LogLevel::kInfo, "done: " + std::to_string(s.frames_captured) + " captured, " +
-                             std::to_string(s.frames_processed) + " processed, " +
-                             std::to_string(s.frames_published) + " published, " +
-                             std::to_string(s.frames_dropped) + " dropped, " +
-                             std::to_string(s.publish_failures) + " publish failures" +
-                             (code == kExitOk ? "" : "; error: " + daemon->error()));
+    const RunLatency lat = daemon->run_latency();
+    char latency[200];
+    std::snprintf(latency, sizeof(latency),
+                  "; whole run: capture->publish p50 %.1f p99 %.1f max %.1f ms, segment p50 "
+                  "%.1f p99 %.1f ms over %llu frames",
+                  lat.capture_to_publish_p50_ms, lat.capture_to_publish_p99_ms,
+                  lat.capture_to_publish_max_ms, lat.segment_p50_ms, lat.segment_p99_ms,
+                  static_cast<unsigned long long>(lat.frames));
+    Log(LogLevel::kInfo,
+        "done: " + std::to_string(s.frames_captured) + " captured, " +
+            std::to_string(s.frames_processed) + " processed, " +
+            std::to_string(s.frames_published) + " published, " + std::to_string(s.frames_dropped) +
+            " dropped, " + std::to_string(s.publish_failures) + " publish failures" +
+            (s.frames_publish_dropped > 0
+                 ? ", " + std::to_string(s.frames_publish_dropped) + " dropped before the transport"
+                 : "") +
+            (s.overlay_failures + s.overlays_dropped > 0
+                 ? ", overlays " + std::to_string(s.overlays_written) + " written / " +
+                       std::to_string(s.overlays_dropped) + " dropped / " +
+                       std::to_string(s.overlay_failures) + " failed"
+                 : "") +
+            latency + (code == kExitOk ? "" : "; error: " + daemon->error()));
   }
   // Close LCM (a file:// log is flushed and complete) before the OpenNI2 shutdown, which takes
   // about half a second; a second signal that arrives meanwhile stays pending and is ignored.

@@ -8,16 +8,10 @@
 
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
+#include "clutterseg/stage_times_t.hpp"
 
 namespace clutterseg::daemon {
 
-namespace {
-// The supervoxelizer's own steps (seeding, growth, statistics): StageTimes::supervoxels_ms
-// also covers voxelization and normals, which are reported separately.
-double SupervoxelsOnlyMs(const pipeline::StageTimes& t) {
-  return std::max(0.0, t.supervoxels_ms - t.voxelize_ms - t.normals_ms);
-}
-}  // namespace
 namespace {
 
 void Copy3(const core::Vec3f& v, float* out) {
@@ -112,21 +106,35 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
 
   msg->num_valid_points = static_cast<int32_t>(result.num_valid_points);
   msg->num_supervoxels = static_cast<int32_t>(result.num_supervoxels);
-  const pipeline::StageTimes& t = result.times;
-  msg->times.points_ms = static_cast<float>(t.points_ms);
-  msg->times.voxelize_ms = static_cast<float>(t.voxelize_ms);
-  msg->times.normals_ms = static_cast<float>(t.normals_ms);
-  msg->times.supervoxels_ms = static_cast<float>(SupervoxelsOnlyMs(t));
-  msg->times.features_ms = static_cast<float>(t.features_ms);
-  msg->times.linkage_ms = static_cast<float>(t.linkage_ms);
-  msg->times.planes_ms = static_cast<float>(t.planes_ms);
-  msg->times.expansion_ms = static_cast<float>(t.expansion_ms);
-  msg->times.objects_ms = static_cast<float>(t.objects_ms);
-  msg->times.total_ms = static_cast<float>(t.total_ms);
+  ToStageTimesMessage(result.times, &msg->times);
+}
+
+void ToStageTimesMessage(const pipeline::StageTimes& times, clutterseg::stage_times_t* msg) {
+  msg->num_stages = static_cast<int32_t>(pipeline::kNumStages);
+  msg->stage_names.resize(pipeline::kNumStages);
+  msg->stage_ms.resize(pipeline::kNumStages);
+  for (size_t i = 0; i < pipeline::kNumStages; ++i) {
+    const std::string_view name = pipeline::StageTable()[i].name;
+    if (msg->stage_names[i] != name) msg->stage_names[i].assign(name);
+    msg->stage_ms[i] = static_cast<float>(times.ms[i]);
+  }
+  msg->total_ms = static_cast<float>(times.total_ms);
+}
+
+const char* ToString(LabelCompression compression) {
+  switch (compression) {
+    case LabelCompression::kNone:
+      return "none";
+    case LabelCompression::kRle:
+      return "rle";
+    case LabelCompression::kZlib:
+      return "zlib";
+  }
+  return "zlib";
 }
 
 void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
-                      config::LabelCompression compression, clutterseg::label_image_t* msg) {
+                      LabelCompression compression, clutterseg::label_image_t* msg) {
   msg->utime = info.utime;
   msg->frame_seq = info.frame_seq;
   msg->camera_name = info.camera_name;
@@ -135,11 +143,11 @@ void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
   std::vector<uint8_t>& data = msg->data;
   data.clear();
   switch (compression) {
-    case config::LabelCompression::kNone:
+    case LabelCompression::kNone:
       msg->compression = clutterseg::label_image_t::COMPRESSION_NONE;
       RawLabels(labels, &data);
       break;
-    case config::LabelCompression::kRle: {
+    case LabelCompression::kRle: {
       msg->compression = clutterseg::label_image_t::COMPRESSION_RLE;
       size_t i = 0;
       while (i < labels.data.size()) {
@@ -152,7 +160,7 @@ void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
       }
       break;
     }
-    case config::LabelCompression::kZlib: {
+    case LabelCompression::kZlib: {
       msg->compression = clutterseg::label_image_t::COMPRESSION_ZLIB;
       std::vector<uint8_t>& raw = RawScratch();
       RawLabels(labels, &raw);
@@ -218,18 +226,6 @@ void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* la
       throw std::runtime_error("label_image_t: unknown compression " +
                                std::to_string(static_cast<int>(msg.compression)));
   }
-}
-
-const std::array<std::string, kNumStages>& StageNames() {
-  static const std::array<std::string, kNumStages> kNames = {"points",      "voxelize",  "normals",
-                                                             "supervoxels", "features",  "linkage",
-                                                             "planes",      "expansion", "objects"};
-  return kNames;
-}
-
-std::array<double, kNumStages> StageValues(const pipeline::StageTimes& t) {
-  return {t.points_ms,  t.voxelize_ms, t.normals_ms,   SupervoxelsOnlyMs(t), t.features_ms,
-          t.linkage_ms, t.planes_ms,   t.expansion_ms, t.objects_ms};
 }
 
 }  // namespace clutterseg::daemon

@@ -1,12 +1,10 @@
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "clutterseg/config/daemon_config.h"
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/types.h"
 #include "clutterseg/pipeline/segmentation_result.h"
@@ -14,9 +12,14 @@
 namespace clutterseg {
 class objects_t;
 class label_image_t;
+class stage_times_t;
 }  // namespace clutterseg
 
 namespace clutterseg::daemon {
+
+/// Encoding of label_image_t payloads.
+enum class LabelCompression { kNone, kRle, kZlib };
+const char* ToString(LabelCompression compression);
 
 /// Frame metadata carried into the messages of one frame.
 struct FrameInfo {
@@ -35,17 +38,13 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
 /// label_image_t with the given compression, reusing `msg`'s buffer.
 /// @throws std::runtime_error when zlib fails.
 void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
-                      config::LabelCompression compression, clutterseg::label_image_t* msg);
+                      LabelCompression compression, clutterseg::label_image_t* msg);
 
 /// Decodes any label_image_t compression back into a label image.
 /// @throws std::runtime_error naming the problem when the message is malformed.
 void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* labels);
 
-/// Number of per-stage times in pipeline::StageTimes (total excluded).
-inline constexpr size_t kNumStages = 9;
-/// Names of the per-stage times, in the order used by status_t.
-const std::array<std::string, kNumStages>& StageNames();
-/// The stage times of `times` in StageNames() order, milliseconds.
-std::array<double, kNumStages> StageValues(const pipeline::StageTimes& times);
+/// Fills a stage_times_t from one frame's stage times (pipeline::StageTable() order).
+void ToStageTimesMessage(const pipeline::StageTimes& times, clutterseg::stage_times_t* msg);
 
 }  // namespace clutterseg::daemon

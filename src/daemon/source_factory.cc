@@ -64,9 +64,9 @@ SourceKind ClassifySource(const std::string& source) {
                         "or synthetic)");
 }
 
-std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config) {
+std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
   const std::string& source = config.source;
-  const bool max_speed = config.speed == config::Speed::kMax;
+  const bool max_speed = config.capture.speed == Speed::kMax;
   switch (ClassifySource(source)) {
     case SourceKind::kDevice:
     case SourceKind::kOniFile: {
@@ -78,8 +78,8 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
         o.uri = source;
       }
       o.replay_speed = max_speed ? -1.0 : 1.0;
-      o.loop = config.loop;
-      o.camera_name = config.camera_name;
+      o.loop = config.capture.loop;
+      o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();
       return std::make_unique<drivers::OpenNI2Source>(o);
 #else
@@ -90,8 +90,8 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
 #ifdef CLUTTERSEG_HAVE_REPLAY
       drivers::PcdDirectorySourceOptions o;
       o.path = source;
-      o.loop = config.loop;
-      o.camera_name = config.camera_name;
+      o.loop = config.capture.loop;
+      o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();
       return std::make_unique<drivers::PcdDirectorySource>(o);
 #else
@@ -102,8 +102,8 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
 #ifdef CLUTTERSEG_HAVE_REPLAY
       drivers::DepthPngSourceOptions o;
       o.directory = source;
-      o.loop = config.loop;
-      o.camera_name = config.camera_name;
+      o.loop = config.capture.loop;
+      o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();
       return std::make_unique<drivers::DepthPngSource>(o);
 #else
@@ -113,9 +113,9 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
     case SourceKind::kSynthetic: {
 #ifdef CLUTTERSEG_HAVE_SYNTHETIC_SOURCE
       drivers::SyntheticSourceOptions o;
-      o.loop = config.loop;
+      o.loop = config.capture.loop;
       o.real_time = !max_speed;
-      o.camera_name = config.camera_name;
+      o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();
       return std::make_unique<drivers::SyntheticSource>(o);
 #else
@@ -126,7 +126,7 @@ std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config
   throw std::invalid_argument("source '" + source + "': unknown kind");
 }
 
-void InitializeSourceDrivers(const config::DaemonConfig& config) {
+void InitializeSourceDrivers(const DaemonConfig& config) {
 #ifdef CLUTTERSEG_HAVE_OPENNI2
   const SourceKind kind = ClassifySource(config.source);
   if (kind == SourceKind::kDevice || kind == SourceKind::kOniFile) {
@@ -135,7 +135,7 @@ void InitializeSourceDrivers(const config::DaemonConfig& config) {
     drivers::InitializeOpenNI2(kind == SourceKind::kOniFile
                                    ? drivers::OpenNI2Drivers::kRecordingsOnly
                                    : drivers::OpenNI2Drivers::kAll);
-    Log(config::LogLevel::kDebug, "OpenNI2 loaded from " + drivers::DescribeOpenNI2());
+    Log(LogLevel::kDebug, "OpenNI2 loaded from " + drivers::DescribeOpenNI2());
   }
 #else
   (void)config;

@@ -3,8 +3,8 @@
 #include <memory>
 #include <string>
 
-#include "clutterseg/config/daemon_config.h"
 #include "clutterseg/core/frame_source.h"
+#include "clutterseg/daemon/daemon_config.h"
 
 namespace clutterseg::daemon {
 
@@ -21,12 +21,12 @@ SourceKind ClassifySource(const std::string& source);
 /// `config` (speed, loop, camera name). @throws SourceOpenError when the path does not
 /// exist, std::invalid_argument when the source kind is not built into this binary or its
 /// options are invalid.
-std::unique_ptr<core::FrameSource> MakeSource(const config::DaemonConfig& config);
+std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config);
 
 /// Process-wide set-up some sources need before other threads start (OpenNI2 changes the
 /// working directory while it initializes). Call once from main() when `config.source` is a
 /// device or an .oni file. @throws std::runtime_error when the driver cannot initialize.
-void InitializeSourceDrivers(const config::DaemonConfig& config);
+void InitializeSourceDrivers(const DaemonConfig& config);
 /// Counterpart of InitializeSourceDrivers, after every source is closed.
 void ShutdownSourceDrivers();
 

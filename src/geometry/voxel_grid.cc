@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/core/simd_points.h"
 #include "clutterseg/geometry/moments.h"
 
@@ -64,11 +65,11 @@ inline Float4 Ln4(Float4 z) {
 #endif
 
 // Packed keys of four points; kInvalidKey for non-finite points, z <= 0 with the camera
-// transform, depth beyond max_depth_m (> 0), and coordinates outside the key range. Floors are
+// transform, and coordinates outside the key range. Floors are
 // exact for |q| < 2^20 (truncation, minus one where that rounded up).
 #if defined(__SSE2__)
 inline void QuantizeFour(__m128 vx, __m128 vy, __m128 vz, bool camera, float inv_res,
-                         float max_depth_m, uint64_t* keys) {
+                         uint64_t* keys) {
   constexpr float kLim = static_cast<float>(kCoordLimit);
   const __m128 res = _mm_set1_ps(inv_res);
   __m128 qx, qy, qz, valid;
@@ -84,7 +85,6 @@ inline void QuantizeFour(__m128 vx, __m128 vy, __m128 vz, bool camera, float inv
     qz = _mm_mul_ps(vz, res);
     valid = _mm_castsi128_ps(_mm_set1_epi32(-1));
   }
-  if (max_depth_m > 0.f) valid = _mm_andnot_ps(_mm_cmpgt_ps(vz, _mm_set1_ps(max_depth_m)), valid);
   const __m128 abs_mask = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
   const __m128 lim = _mm_set1_ps(kLim);
   valid = _mm_and_ps(valid, _mm_cmplt_ps(_mm_and_ps(qx, abs_mask), lim));
@@ -117,7 +117,7 @@ inline void QuantizeFour(__m128 vx, __m128 vy, __m128 vz, bool camera, float inv
 // Keys of points [0, n) (see QuantizeFour): four at a time, the rest padded with invalid
 // points, so that a point's key never depends on its position.
 inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float inv_res,
-                           float max_depth_m, uint64_t* keys) {
+                           uint64_t* keys) {
 #if defined(__SSE2__)
   size_t i = 0;
   for (; i + 4 <= n; i += 4) {
@@ -128,7 +128,7 @@ inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float in
       std::fill_n(keys + i, 4, kInvalidKey);
       continue;
     }
-    QuantizeFour(four.x, four.y, four.z, camera, inv_res, max_depth_m, keys + i);
+    QuantizeFour(four.x, four.y, four.z, camera, inv_res, keys + i);
   }
   if (i < n) {
     float x[4] = {0.f, 0.f, 0.f, 0.f}, y[4] = {0.f, 0.f, 0.f, 0.f};
@@ -139,8 +139,7 @@ inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float in
       z[k] = p[i + k].z;
     }
     uint64_t tail[4];
-    QuantizeFour(_mm_loadu_ps(x), _mm_loadu_ps(y), _mm_loadu_ps(z), camera, inv_res, max_depth_m,
-                 tail);
+    QuantizeFour(_mm_loadu_ps(x), _mm_loadu_ps(y), _mm_loadu_ps(z), camera, inv_res, tail);
     std::copy_n(tail, n - i, keys + i);
   }
 #else
@@ -161,7 +160,6 @@ inline void QuantizePoints(const core::Vec3f* p, size_t n, bool camera, float in
       qz = q.z * inv_res;
       ok = true;
     }
-    if (max_depth_m > 0.f && q.z > max_depth_m) ok = false;
     ok = ok && std::fabs(qx) < kLim && std::fabs(qy) < kLim && std::fabs(qz) < kLim;
     keys[i] =
         ok ? PackKey(static_cast<int32_t>(std::floor(qx)), static_cast<int32_t>(std::floor(qy)),
@@ -175,18 +173,9 @@ using core::ForChunks;
 
 }  // namespace
 
-void VoxelGridParams::ValidateOrThrow() const {
-  auto fail = [](const char* key, double value, const char* want) {
-    std::ostringstream os;
-    os << "voxel grid params: " << key << " = " << value << " is invalid (" << want << ")";
-    throw std::invalid_argument(os.str());
-  };
-  if (!(voxel_resolution_m >= 1e-4f && voxel_resolution_m <= 1.0f)) {
-    fail("voxel_resolution_m", voxel_resolution_m, "expected 0.0001..1 m");
-  }
-  if (!(max_depth_m >= 0.0f && std::isfinite(max_depth_m))) {
-    fail("max_depth_m", max_depth_m, "expected >= 0 m, 0 = no limit");
-  }
+void VoxelGridParams::ValidateOrThrow(std::string_view section) const {
+  const core::ParamCheck check(section);
+  check.InRange("voxel_resolution_m", voxel_resolution_m, 1e-4f, 1.0f, "m");
 }
 
 uint64_t PackVoxelKey(const VoxelCoord& c) { return PackKey(c.x, c.y, c.z); }
@@ -201,7 +190,8 @@ int32_t VoxelGrid::FindVoxel(const VoxelCoord& c) const {
   return static_cast<int32_t>(it - key.begin());
 }
 
-Voxelizer::Voxelizer(const VoxelGridParams& params) : params_(params) { params_.ValidateOrThrow(); }
+Voxelizer::Voxelizer(const VoxelGridParams& params, core::ThreadPool* pool)
+    : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
 float Voxelizer::VoxelSizeAt(float z_m) const {
   return params_.use_single_camera_transform ? params_.voxel_resolution_m * z_m
@@ -211,19 +201,20 @@ float Voxelizer::VoxelSizeAt(float z_m) const {
 bool Voxelizer::Quantize(const core::Vec3f& p, VoxelCoord* c) const {
   uint64_t key;
   QuantizePoints(&p, 1, params_.use_single_camera_transform, 1.0f / params_.voxel_resolution_m,
-                 params_.max_depth_m, &key);
+                 &key);
   if (key == kInvalidKey) return false;
   *c = UnpackKey(key);
   return true;
 }
 
-void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
+void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid) {
+  core::ThreadPool* const pool = pool_;
   CLUTTERSEG_DEMAND(grid != nullptr);
   const size_t n = cloud.size();
   const bool organized = cloud.organized() &&
                          static_cast<size_t>(cloud.width) * static_cast<size_t>(cloud.height) == n;
   const size_t w = organized ? static_cast<size_t>(cloud.width) : 0;
-  const bool with_color = params_.compute_mean_color && cloud.rgba.size() == n && n > 0;
+  const bool with_color = mean_color && cloud.rgba.size() == n && n > 0;
   grid->width = cloud.width;
   grid->height = cloud.height;
 
@@ -234,7 +225,6 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
   grid->point_voxel.resize(n);
   const bool camera = params_.use_single_camera_transform;
   const float inv_res = 1.0f / params_.voxel_resolution_m;
-  const float max_depth = params_.max_depth_m;
   const size_t num_bands = core::ThreadPool::NumChunks(n, kBandPoints);
   if (bands_.size() < num_bands) bands_.resize(num_bands);
   ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
@@ -244,7 +234,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, 
     const core::Vec3f* xyz = cloud.xyz.data();
     uint64_t* keys = pixel_key_.data();
     int32_t* point_voxel = grid->point_voxel.data();
-    QuantizePoints(xyz + begin, end - begin, camera, inv_res, max_depth, keys + begin);
+    QuantizePoints(xyz + begin, end - begin, camera, inv_res, keys + begin);
     for (size_t i = begin; i < end; ++i) {
       const core::Vec3f& p = xyz[i];
       const uint64_t key = keys[i];
@@ -457,7 +447,8 @@ void Voxelizer::SortByKey(size_t num_entries) {
   }
 }
 
-void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
+void Voxelizer::ComputeAdjacency(VoxelGrid* grid) {
+  core::ThreadPool* const pool = pool_;
   CLUTTERSEG_DEMAND(grid != nullptr);
   const size_t num_voxels = grid->size();
   grid->adjacency_offsets.assign(num_voxels + 1, 0);
@@ -595,7 +586,8 @@ void Voxelizer::ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid) {
   });
 }
 
-void Voxelizer::ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const {
+void Voxelizer::ComputeNormals(VoxelGrid* grid) const {
+  core::ThreadPool* const pool = pool_;
   CLUTTERSEG_DEMAND(grid != nullptr);
   const size_t num_voxels = grid->size();
   CLUTTERSEG_DEMAND(grid->adjacency_offsets.size() == num_voxels + 1);
@@ -671,10 +663,10 @@ void Voxelizer::ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const {
   });
 }
 
-void Voxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid) {
-  Voxelize(cloud, pool, grid);
-  ComputeAdjacency(pool, grid);
-  ComputeNormals(pool, grid);
+void Voxelizer::Compute(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid) {
+  Voxelize(cloud, mean_color, grid);
+  ComputeAdjacency(grid);
+  ComputeNormals(grid);
 }
 
 }  // namespace clutterseg::geometry

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -11,7 +12,9 @@
 
 namespace clutterseg::geometry {
 
-/// Parameters of the voxel grid (the leaf level of the VCCS octree).
+/// Parameters of the voxel grid (the leaf level of the VCCS octree). They sit inside
+/// supervoxel::SupervoxelParams, whose YAML section holds these keys too
+/// (`segmenter.supervoxel.voxel_resolution_m`, ...).
 struct VoxelGridParams {
   /// Voxel edge, metres. With the single-camera transform this is the edge at 1 m depth.
   float voxel_resolution_m{0.0075f};
@@ -23,13 +26,9 @@ struct VoxelGridParams {
   /// and about 20% more time. A Euclidean grid also falls apart into isolated voxels on
   /// slanted surfaces beyond ~2 m, where the pixel spacing exceeds the voxel size.
   bool use_single_camera_transform{true};
-  /// Points farther than this from the camera (z, metres) are ignored; 0 = no limit.
-  float max_depth_m{0.0f};
-  /// Average the points' colours per voxel (when the cloud has colour).
-  bool compute_mean_color{true};
 
-  /// @throws std::invalid_argument naming the key and value.
-  void ValidateOrThrow() const;
+  /// @throws std::invalid_argument naming the key `<section>.<field>` and the value.
+  void ValidateOrThrow(std::string_view section = "segmenter.supervoxel") const;
 };
 
 /// Integer voxel coordinates in the quantised space.
@@ -56,7 +55,7 @@ struct VoxelGrid {
   std::vector<uint32_t> num_points;   ///< points in the voxel (>= 1)
   std::vector<core::Vec3f> centroid;  ///< mean of the voxel's points, metres
   /// Mean colour (r, g, b in 0..255) of the voxel's points; empty when the cloud has none or
-  /// VoxelGridParams::compute_mean_color is false.
+  /// the voxelization was not asked for colour.
   std::vector<core::Vec3f> mean_color;
   /// Sums of the voxel's points (x, y, z) and of their products (xx, xy, xz, yy, yz, zz),
   /// metres and square metres, for exact covariances of unions of voxels.
@@ -89,31 +88,34 @@ uint64_t PackVoxelKey(const VoxelCoord& c);
 /// and grow only when a frame needs more than any before it.
 ///
 /// Thread-safety: one Voxelizer must not be used by two threads at once; distinct instances
-/// are independent. Work inside a call is split over `pool` (nullable) in chunks whose results
-/// do not depend on the pool size: the output is bit-identical for any number of threads.
+/// are independent. Work inside a call is split over the pool given at construction
+/// (nullable) in chunks whose results do not depend on the pool size: the output is
+/// bit-identical for any number of threads.
 class Voxelizer {
  public:
+  /// `pool` may be null (single-threaded) and must outlive the Voxelizer.
   /// @throws std::invalid_argument when `params` is invalid.
-  explicit Voxelizer(const VoxelGridParams& params);
+  explicit Voxelizer(const VoxelGridParams& params, core::ThreadPool* pool = nullptr);
 
   const VoxelGridParams& params() const { return params_; }
 
-  /// Quantises the valid points of `cloud` (organized or not; colour averaged when present and
-  /// compute_mean_color) and fills the voxel fields of `grid` (not adjacency or normals).
-  /// O(points + V). For organized clouds a point reuses the voxel of its left or upper
-  /// pixel when their keys match, so only about one point in six needs a hash lookup.
-  void Voxelize(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid);
+  /// Quantises the valid points of `cloud` (organized or not; colour averaged when
+  /// `mean_color` and the cloud has colour) and fills the voxel fields of `grid` (not
+  /// adjacency or normals). O(points + V). For organized clouds a point reuses the voxel of
+  /// its left or upper pixel when their keys match, so only about one point in six needs a
+  /// hash lookup.
+  void Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid);
   /// Fills the 26-neighbourhood CSR of a voxelized grid by a linear sweep over the voxel
   /// columns (no lookups). O(V).
-  void ComputeAdjacency(core::ThreadPool* pool, VoxelGrid* grid);
+  void ComputeAdjacency(VoxelGrid* grid);
   /// Fills normals and curvature; needs the adjacency. O(V * degree).
-  void ComputeNormals(core::ThreadPool* pool, VoxelGrid* grid) const;
+  void ComputeNormals(VoxelGrid* grid) const;
   /// The three steps above.
-  void Compute(const core::PointCloud& cloud, core::ThreadPool* pool, VoxelGrid* grid);
+  void Compute(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid);
 
   /// Quantised coordinates of a valid point (metres, camera frame); false when the point is
-  /// out of range (non-positive depth with the camera transform, beyond max_depth_m, or
-  /// coordinates beyond the key range).
+  /// out of range (non-positive depth with the camera transform, or coordinates beyond the
+  /// key range).
   bool Quantize(const core::Vec3f& p, VoxelCoord* c) const;
   /// Edge length (metres) of a voxel at depth z: the resolution, times z with the camera
   /// transform.
@@ -134,6 +136,7 @@ class Voxelizer {
   };
 
   const VoxelGridParams params_;
+  core::ThreadPool* const pool_;
   std::vector<Band> bands_;
   std::vector<uint64_t> pixel_key_;
   // Voxels of all bands, concatenated in band order, for the merge.

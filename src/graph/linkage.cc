@@ -6,6 +6,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "clutterseg/core/scoped_timer.h"
+
 namespace clutterseg::graph {
 namespace {
 
@@ -88,12 +90,11 @@ bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core
 }
 
 Linkage::Linkage(const LinkageParams& params, core::ThreadPool* pool)
-    : params_(params), pool_(pool) {
-  params_.ValidateOrThrow();
-}
+    : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
 void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
                       LinkageResult* out) {
+  const core::ScopedTimer timer(&out->time_ms);
   const size_t n = sv.size();
   if (f.size() != n || f.normal.size() != n || f.type.size() != n) {
     throw std::runtime_error("Linkage: features have " + std::to_string(f.size()) +

@@ -26,6 +26,8 @@ struct LinkageResult {
   /// Number of supervoxels in each segment.
   std::vector<uint32_t> segment_size;
   int num_segments{0};
+  /// Wall time of the Compute that produced this result, milliseconds.
+  double time_ms{0.0};
 };
 
 /// Local area linkage and LCCP convexity (docs/method.md section 3): decides for every
@@ -38,10 +40,9 @@ struct LinkageResult {
 /// with extended convexity.
 class Linkage {
  public:
+  /// `pool` may be null (single-threaded) and must outlive the Linkage.
   /// @throws std::invalid_argument when `params` fail validation.
   explicit Linkage(const LinkageParams& params, core::ThreadPool* pool = nullptr);
-  /// Replaces the pool (nullable) for the following calls.
-  void set_pool(core::ThreadPool* pool) { pool_ = pool; }
 
   /// `features` must have one entry per supervoxel of `supervoxels` (centroids, normals and
   /// types are used).
@@ -53,7 +54,7 @@ class Linkage {
 
  private:
   const LinkageParams params_;
-  core::ThreadPool* pool_;
+  core::ThreadPool* const pool_;
   std::vector<uint32_t> reverse_slot_;
   std::vector<uint8_t> convex_raw_;
   std::vector<int32_t> parent_;

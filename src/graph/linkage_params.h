@@ -1,9 +1,13 @@
 #pragma once
 
+#include <string_view>
+
 namespace clutterseg::graph {
 
 /// Parameters of local area linkage and convexity (docs/method.md sections 2-3).
 struct LinkageParams {
+  static constexpr std::string_view kSection = "segmenter.linkage";
+
   /// Below this normal angle a concave edge still counts as convex, degrees (LCCP and the
   /// paper: 10; 35 measured best, docs/method.md).
   float concavity_tolerance_deg{35.0f};
@@ -19,7 +23,7 @@ struct LinkageParams {
   float convexity_epsilon{0.0f};   ///< slack on (n_i - n_j) . d > 0, dimensionless
   int min_segment_supervoxels{1};  ///< smaller components merge into a neighbour
 
-  /// @throws std::invalid_argument naming the key and value.
+  /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;
 };
 

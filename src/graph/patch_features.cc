@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "clutterseg/core/scoped_timer.h"
 #include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::graph {
@@ -81,6 +82,7 @@ void FinishPatchShape(double n, const geometry::ShapeSummary& shape, size_t i, P
 
 void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
                                     const supervoxel::Supervoxels& sv, PatchFeatures* f) {
+  const core::ScopedTimer timer(&f->time_ms);
   const size_t num_sv = sv.size();
   const size_t num_pixels = static_cast<size_t>(sv.width) * static_cast<size_t>(sv.height);
   if (cloud.width != sv.width || cloud.height != sv.height || cloud.xyz.size() != num_pixels ||

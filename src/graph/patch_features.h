@@ -42,6 +42,8 @@ struct PatchFeatures {
   std::vector<float> a3d;
   /// kPlanar when a2D > a1D and a2D > a3D; patches with fewer than 3 points are kNonPlanar.
   std::vector<PatchType> type;
+  /// Wall time of the Compute that produced these features, milliseconds.
+  double time_ms{0.0};
 
   size_t size() const { return centroid.size(); }
   /// Resizes every array to `n` entries (reusing capacity).
@@ -50,9 +52,12 @@ struct PatchFeatures {
 
 /// Computes PatchFeatures from the member points of each supervoxel.
 ///
-/// Points are accumulated (in double precision) per fixed block of image rows and the block
-/// sums are combined in block order, so the output is bit-identical for any thread count.
-/// Eigen-decomposition uses Eigen's closed-form 3x3 solver.
+/// When the supervoxelizer kept its members' moments (the normal case) the features follow
+/// from them without a pass over the pixels: only the covariance is formed, the eigenpairs
+/// and normals are the supervoxelizer's (geometry::SummarizeMoments). Otherwise points are
+/// accumulated (in double precision) per fixed block of image rows, the block sums combined
+/// in block order, and each patch summarised by geometry::SummarizeMoments; either way the
+/// output is bit-identical for any thread count.
 ///
 /// Thread-safety: Compute is not reentrant (it reuses work buffers); distinct instances are
 /// independent. Complexity: O(pixels + supervoxels).
@@ -60,18 +65,16 @@ class PatchFeatureExtractor {
  public:
   /// `pool` may be null (single-threaded) and must outlive the extractor.
   explicit PatchFeatureExtractor(core::ThreadPool* pool = nullptr) : pool_(pool) {}
-  /// Replaces the pool (nullable) for the following calls.
-  void set_pool(core::ThreadPool* pool) { pool_ = pool; }
 
   /// Fills `features` with one entry per supervoxel of `supervoxels`, reading the points of
   /// `cloud` (organized, same width and height as `supervoxels`). Pixels with label -1 or an
-  /// invalid (non-finite) point are ignored.
+  /// invalid (non-finite) point are ignored. features->time_ms is this call's wall time.
   /// @throws std::runtime_error when the sizes disagree or a pixel label is out of range.
   void Compute(const core::PointCloud& cloud, const supervoxel::Supervoxels& supervoxels,
                PatchFeatures* features);
 
  private:
-  core::ThreadPool* pool_;
+  core::ThreadPool* const pool_;
   std::vector<double> block_sums_;  // blocks x supervoxels x kMoments
   std::vector<uint8_t> bad_block_;
 };

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <string_view>
+
 namespace clutterseg::optimize {
 
 /// Parameters of plane hypotheses and the alpha-expansion energy (docs/method.md 4-5).
@@ -12,6 +14,8 @@ namespace clutterseg::optimize {
 /// adjacent pair with different labels costs `smoothness_weight`. With the defaults the
 /// data term of a patch near a plane lies in [0, 2] and the feature term in [0, 1].
 struct PlaneParams {
+  static constexpr std::string_view kSection = "segmenter.planes";
+
   float inlier_distance_m{0.008f};    ///< rho: patch centroid to plane distance, metres
   float inlier_angle_deg{30.0f};      ///< normal compatibility of an inlier patch
   int min_inlier_patches{50};         ///< kappa (paper 50), in supervoxels
@@ -40,7 +44,7 @@ struct PlaneParams {
   /// Refit iterations: inliers are re-collected with the refitted plane this many times.
   int refit_iterations{2};
 
-  /// @throws std::invalid_argument naming the key and value.
+  /// @throws std::invalid_argument naming the key (`segmenter.planes.<field>`) and value.
   void ValidateOrThrow() const;
 };
 

@@ -62,9 +62,8 @@ bool FitPlane(const graph::PatchFeatures& f, const std::vector<uint32_t>& patche
 
 }  // namespace internal
 
-PlaneLabeler::PlaneLabeler(const PlaneParams& params) : params_(params) {
-  params_.ValidateOrThrow();
-}
+PlaneLabeler::PlaneLabeler(const PlaneParams& params)
+    : params_((params.ValidateOrThrow(), params)) {}
 
 void PlaneLabeler::PackPatches(const graph::PatchFeatures& f) {
   packed_.clear();
@@ -251,6 +250,16 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
 
 void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
                            PlaneLabeling* out) {
+  const auto t0 = std::chrono::steady_clock::now();
+  out->expansion_ms = 0.0;
+  Label(sv, f, out);
+  const double total_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  out->hypotheses_ms = std::max(0.0, total_ms - out->expansion_ms);
+}
+
+void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
+                         PlaneLabeling* out) {
   const size_t n = sv.size();
   if (f.size() != n || f.num_points.size() != n || f.a2d.size() != n) {
     throw std::runtime_error("PlaneLabeler: features have " + std::to_string(f.size()) +
@@ -262,7 +271,6 @@ void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::Patch
                              std::to_string(sv.adjacency_offsets.size()) + " entries for " +
                              std::to_string(n) + " supervoxels");
   }
-  last_expansion_ms_ = 0.0;
   FindPlanes(f, &hypotheses_);
   out->num_hypotheses = static_cast<int>(hypotheses_.size());
   out->planes.clear();
@@ -304,7 +312,7 @@ void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::Patch
   labels_.clear();
   const auto t0 = std::chrono::steady_clock::now();
   out->energy = expansion_.Minimize(energy, params_.max_expansion_cycles, &labels_);
-  last_expansion_ms_ =
+  out->expansion_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   out->expansion_cycles = expansion_.last_cycles();
 

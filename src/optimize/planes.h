@@ -30,6 +30,10 @@ struct PlaneLabeling {
   int num_hypotheses{0};
   double energy{0.0};  ///< final energy, in units of rho (see PlaneParams)
   int expansion_cycles{0};
+  /// Wall times of the Compute that produced this labelling, milliseconds: the
+  /// alpha-expansion, and everything else (hypotheses, unary costs, renumbering).
+  double hypotheses_ms{0.0};
+  double expansion_ms{0.0};
 };
 
 /// Plane hypotheses from planar low-curvature patches, total-least-squares refit on the
@@ -56,8 +60,6 @@ class PlaneLabeler {
   void FindPlanes(const graph::PatchFeatures& features, std::vector<PlaneModel>* planes);
 
   const PlaneParams& params() const { return params_; }
-  /// Wall time of the alpha-expansion inside the last Compute, milliseconds.
-  double last_expansion_ms() const { return last_expansion_ms_; }
 
  private:
   // Patches with at least min_patch_points points, packed for the inlier scans.
@@ -66,6 +68,8 @@ class PlaneLabeler {
     core::Vec3f normal;
     uint32_t index;
   };
+  void Label(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
+             PlaneLabeling* out);
   void PackPatches(const graph::PatchFeatures& f);
   // Patches within rho (times tolerance_scale) of the plane whose normal is within the inlier
   // angle (times tolerance_scale, capped below 90 deg) and, with a centre, within radius_m of it.
@@ -89,7 +93,6 @@ class PlaneLabeler {
   std::vector<float> soa_[6];
   std::vector<std::pair<float, uint32_t>> by_x_;  // (centroid x, packed position), ascending
   std::vector<uint32_t> near_;                    // scratch of neighbourhood queries
-  double last_expansion_ms_{0.0};
   std::vector<uint8_t> covered_;
   std::vector<float> unary_;
   std::vector<int32_t> labels_;

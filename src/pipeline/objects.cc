@@ -7,6 +7,8 @@
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
 
+#include "clutterseg/core/scoped_timer.h"
+
 namespace clutterseg::pipeline {
 struct ObjectExtractor::Accumulator {
   uint64_t n{0};
@@ -34,13 +36,16 @@ core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v
 
 }  // namespace
 
-ObjectExtractor::ObjectExtractor() = default;
+ObjectExtractor::ObjectExtractor(core::ThreadPool* pool) : pool_(pool) {}
 ObjectExtractor::~ObjectExtractor() = default;
 
-void ObjectExtractor::Compute(const core::PointCloud& cloud, const core::LabelImage& labels,
-                              uint32_t num_objects, const std::vector<Plane>& planes,
-                              std::vector<Object>* objects, core::ThreadPool* pool) {
-  objects->resize(num_objects);
+void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult* result) {
+  const core::ScopedTimer timer(&result->times[Stage::kObjects]);
+  core::ThreadPool* const pool = pool_;
+  const core::LabelImage& labels = result->labels;
+  const std::vector<Plane>& planes = result->planes;
+  std::vector<Object>* const objects = &result->objects;
+  const auto num_objects = static_cast<uint32_t>(objects->size());
   if (num_objects == 0) return;
   const bool color = cloud.has_color();
   const int w = labels.width;

@@ -11,7 +11,7 @@ namespace clutterseg::pipeline {
 
 /// Computes the per-object statistics (point count, centroid, axis-aligned and oriented
 /// boxes, principal axes, mean colour, image bounding box, support plane) for the objects
-/// 1..num_objects of `labels` over the organized `cloud`. The support plane of an object is
+/// of the label image over the `cloud` it labels. The support plane of an object is
 /// the support plane nearest to its lowest axis-aligned-box corner, with the object on the
 /// plane's camera side, or -1. The pixel passes run over bands of rows on `pool` when one
 /// is given; the bands are fixed and summed in order, so the result does not depend on it.
@@ -20,15 +20,19 @@ namespace clutterseg::pipeline {
 /// not allocate); distinct instances are independent.
 class ObjectExtractor {
  public:
-  ObjectExtractor();
+  /// `pool` may be null (single-threaded) and must outlive the extractor.
+  explicit ObjectExtractor(core::ThreadPool* pool = nullptr);
   ~ObjectExtractor();
+  ObjectExtractor(const ObjectExtractor&) = delete;
+  ObjectExtractor& operator=(const ObjectExtractor&) = delete;
 
-  /// Fills `objects` (reusing its storage) with objects[k].id == k + 1.
-  void Compute(const core::PointCloud& cloud, const core::LabelImage& labels, uint32_t num_objects,
-               const std::vector<Plane>& planes, std::vector<Object>* objects,
-               core::ThreadPool* pool = nullptr);
+  /// Fills the statistics of the result->objects.size() objects of result->labels
+  /// (objects[k].id == k + 1) over `cloud` (same layout as the label image), with
+  /// result->planes for the support planes, and its time in result->times[Stage::kObjects].
+  void Compute(const core::PointCloud& cloud, SegmentationResult* result);
 
  private:
+  core::ThreadPool* const pool_;
   struct Accumulator;
   struct Frame;
   std::vector<Accumulator> acc_;

@@ -39,6 +39,23 @@ void CloudToImage(const core::PointCloud& cloud, core::ColorImage* out) {
   }
 }
 
+void DepthToImage(const core::DepthImage& depth, core::ColorImage* out) {
+  out->Reset(depth.width, depth.height);
+  uint16_t dmin = UINT16_MAX, dmax = 0;
+  for (const uint16_t d : depth.data) {
+    if (d == 0) continue;
+    dmin = std::min(dmin, d);
+    dmax = std::max(dmax, d);
+  }
+  const float range = std::max(static_cast<float>(dmax) - static_cast<float>(dmin), 1.f);
+  for (size_t i = 0; i < depth.data.size(); ++i) {
+    const uint16_t d = depth.data[i];
+    if (d == 0) continue;
+    const auto g = static_cast<uint8_t>(230.f - 180.f * (static_cast<float>(d - dmin)) / range);
+    out->data[i] = core::Rgb8{g, g, g};
+  }
+}
+
 void RenderOverlay(const core::LabelImage& labels, const core::ColorImage* base,
                    core::ColorImage* out) {
   const int w = labels.width;

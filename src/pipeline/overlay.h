@@ -12,6 +12,10 @@ core::Rgb8 LabelColor(uint32_t id);
 /// shaded grey (near = bright); invalid points black. Reuses `out`'s storage.
 void CloudToImage(const core::PointCloud& cloud, core::ColorImage* out);
 
+/// An image of a depth image (millimetres, 0 = invalid) for display when a frame has no
+/// colour: shaded grey, near = bright, invalid pixels black. Reuses `out`'s storage.
+void DepthToImage(const core::DepthImage& depth, core::ColorImage* out);
+
 /// Draws `labels` over `base` (same size; may be null for a black base): each object's
 /// pixels are blended with its LabelColor, object borders drawn solid, background dimmed.
 /// Reuses `out`'s storage.

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "clutterseg/core/scoped_timer.h"
+
 namespace clutterseg::pipeline {
 namespace {
 
@@ -27,8 +29,8 @@ void Refiner::Union(int32_t a, int32_t b) {
   parent_[a] = b;  // the smaller id is the root: deterministic
 }
 
-bool Refiner::KeepGroup(const ObjectParams& params, const optimize::PlaneLabeling& planes,
-                        int32_t g) const {
+bool Refiner::KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const {
+  const ObjectParams& params = params_;
   if (group_points_[g] < static_cast<uint64_t>(params.min_object_points)) return false;
   if (params.below_support_margin_m <= 0.f) return true;
   // Segments below a support surface (the table's edge faces and legs, things under the
@@ -45,11 +47,18 @@ bool Refiner::KeepGroup(const ObjectParams& params, const optimize::PlaneLabelin
   return true;
 }
 
-uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
-                      const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
-                      const graph::PatchFeatures& features, const graph::LinkageResult& link,
-                      const optimize::PlaneLabeling& planes, core::LabelImage* labels,
-                      std::vector<Plane>* out_planes, core::ThreadPool* pool) {
+Refiner::Refiner(const ObjectParams& params, core::ThreadPool* pool)
+    : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
+
+void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::PointCloud& cloud,
+                      const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+                      const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
+                      SegmentationResult* result) {
+  const core::ScopedTimer timer(&result->times[Stage::kRefine]);
+  const ObjectParams& params = params_;
+  core::ThreadPool* const pool = pool_;
+  core::LabelImage* const labels = &result->labels;
+  std::vector<Plane>* const out_planes = &result->planes;
   const size_t n = sv.size();
   const size_t num_planes = planes.planes.size();
 
@@ -153,7 +162,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
   for (size_t k = 0; k < num_bands; ++k) {
     for (const int32_t g : band_groups_[k]) {
       if (group_label_[g] < 0) {
-        group_label_[g] = KeepGroup(params, planes, g) ? static_cast<int32_t>(++next) : 0;
+        group_label_[g] = KeepGroup(planes, g) ? static_cast<int32_t>(++next) : 0;
       }
     }
   }
@@ -184,7 +193,7 @@ uint32_t Refiner::Run(const ObjectParams& params, const core::CameraIntrinsics& 
       }
     }
   });
-  return next;
+  result->objects.assign(next, Object{});
 }
 
 }  // namespace clutterseg::pipeline

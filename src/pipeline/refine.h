@@ -21,24 +21,30 @@ namespace clutterseg::pipeline {
 /// that touch are merged, and groups smaller than min_object_points are dropped. Object ids
 /// are assigned in row-major order of each object's first pixel, so output is deterministic.
 ///
-/// Thread-safety: Run is not reentrant (reuses work buffers).
+/// Thread-safety: Compute is not reentrant (reuses work buffers); distinct instances are
+/// independent.
 class Refiner {
  public:
-  /// Writes the label image (`labels` must already be sized to the frame) and the plane
-  /// list; returns the number of objects (labels 1..n). The pixel passes run on `pool` when
-  /// one is given; the result does not depend on it.
-  uint32_t Run(const ObjectParams& params, const core::CameraIntrinsics& intrinsics,
-               const core::PointCloud& cloud, const supervoxel::Supervoxels& sv,
-               const graph::PatchFeatures& features, const graph::LinkageResult& link,
-               const optimize::PlaneLabeling& planes, core::LabelImage* labels,
-               std::vector<Plane>* out_planes, core::ThreadPool* pool = nullptr);
+  /// `pool` may be null (single-threaded) and must outlive the Refiner.
+  /// @throws std::invalid_argument when `params` fail validation.
+  explicit Refiner(const ObjectParams& params, core::ThreadPool* pool = nullptr);
+
+  /// Writes result->labels (already sized to the frame), result->planes, num_objects
+  /// default entries in result->objects (labels 1..num_objects; ObjectExtractor fills their
+  /// statistics) and its time in result->times[Stage::kRefine]. The pixel passes run on the
+  /// pool; the result does not depend on it.
+  void Compute(const core::CameraIntrinsics& intrinsics, const core::PointCloud& cloud,
+               const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+               const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
+               SegmentationResult* result);
 
  private:
   int32_t Find(int32_t x);
-  bool KeepGroup(const ObjectParams& params, const optimize::PlaneLabeling& planes,
-                 int32_t g) const;
+  bool KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const;
   void Union(int32_t a, int32_t b);
 
+  const ObjectParams params_;
+  core::ThreadPool* const pool_;
   std::vector<int32_t> parent_;
   std::vector<uint8_t> background_;
   std::vector<uint8_t> support_;

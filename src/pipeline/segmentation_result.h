@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "clutterseg/core/types.h"
+#include "clutterseg/pipeline/stage_times.h"
 
 namespace clutterseg::pipeline {
 
@@ -34,16 +35,6 @@ struct Object {
   int32_t pixel_min_u{0}, pixel_min_v{0}, pixel_max_u{0}, pixel_max_v{0};  ///< image bbox
 };
 
-/// Per-stage wall times of one frame, milliseconds. supervoxels_ms covers the whole
-/// supervoxelizer: voxelize_ms (voxels + adjacency), normals_ms, seeding_ms and growth_ms
-/// (growth, refinement, connectivity, leftovers) are parts of it, the rest is the supervoxel
-/// statistics. planes_ms (hypotheses) and expansion_ms (alpha-expansion) are disjoint.
-struct StageTimes {
-  double points_ms{0}, voxelize_ms{0}, normals_ms{0}, seeding_ms{0}, growth_ms{0},
-      supervoxels_ms{0}, features_ms{0}, linkage_ms{0}, planes_ms{0}, expansion_ms{0},
-      objects_ms{0}, total_ms{0};
-};
-
 /// Everything the segmenter produces for one frame. Buffers are reused across frames.
 struct SegmentationResult {
   int width{0};
@@ -53,7 +44,7 @@ struct SegmentationResult {
   std::vector<Plane> planes;
   uint32_t num_supervoxels{0};
   uint32_t num_valid_points{0};
-  StageTimes times;
+  StageTimes times;  ///< per stage (StageTable()) and the whole call
 };
 
 }  // namespace clutterseg::pipeline

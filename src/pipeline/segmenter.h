@@ -1,38 +1,40 @@
 #pragma once
 
-#include <chrono>
-#include <cstdint>
 #include <memory>
 
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/core/types.h"
 #include "clutterseg/pipeline/segmentation_result.h"
 #include "clutterseg/pipeline/segmenter_params.h"
 
 namespace clutterseg::pipeline {
 
-/// Segments one organized frame into objects and support planes with the method of
-/// docs/method.md (supervoxels, patch features, local area linkage with convexity, plane
-/// hypotheses, alpha-expansion, refinement).
+/// Segments one frame into objects and support planes with the method of docs/method.md:
+/// the stages of StageTable() in order (working cloud, supervoxels, patch features, local
+/// area linkage with convexity, plane hypotheses, alpha-expansion, refinement, object
+/// statistics). Each stage is built once here from its section of the params and the pool.
 ///
 /// Thread-safety: one Segmenter processes one frame at a time (Process is not reentrant);
-/// use one Segmenter per pipeline stage slot. Work inside a frame goes through the injected
-/// ThreadPool; results are identical for any pool size. Work buffers are kept between calls,
-/// so steady-state processing does not allocate.
+/// use one Segmenter per frame in flight (FrameRunner does). Work inside a frame goes through
+/// the pool given at construction; results are bit-identical for any pool size, including
+/// none. Work buffers are kept between calls, so steady-state processing does not allocate.
 class Segmenter {
  public:
   Segmenter(const Segmenter&) = delete;
   Segmenter& operator=(const Segmenter&) = delete;
 
-  /// @throws std::invalid_argument when `params` fail validation (naming the key).
   /// `pool` may be null (single-threaded) and must outlive the Segmenter.
+  /// @throws std::invalid_argument when `params` fail validation (naming the key).
   explicit Segmenter(const SegmenterParams& params, core::ThreadPool* pool = nullptr);
   ~Segmenter();
 
-  /// Segments `cloud` (organized, metres, NaN = invalid; colour optional) and fills `result`.
-  /// Degenerate input (no valid point, a single plane, noise) yields a valid, possibly empty,
-  /// result; it never throws for frame content.
+  /// Segments `cloud` (metres, camera frame, NaN = invalid; organized or not; colour
+  /// optional) and fills `result`, whose label image has the cloud's layout and point order.
+  /// `intrinsics` are those of the camera that took an organized cloud. Degenerate input (no
+  /// valid point, a single plane, noise) yields a valid, possibly empty, result; it never
+  /// throws for frame content.
   void Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
                SegmentationResult* result);
   /// Back-projects `depth` (millimetres, 0 = invalid; `color` optional, may be null) straight
@@ -40,21 +42,16 @@ class Segmenter {
   /// Process, one pass over the pixels fewer.
   void ProcessDepth(const core::DepthImage& depth, const core::ColorImage* color,
                     const core::CameraIntrinsics& intrinsics, SegmentationResult* result);
-  /// The cloud the last call segmented: its input restricted to the depth range (objects'
-  /// min/max_depth_m), with ProcessDepth's colour. Valid until the next call.
+  /// The cloud the last call segmented: its input restricted to the depth range
+  /// (params().points), with ProcessDepth's colour. Valid until the next call.
   const core::PointCloud& working_cloud() const;
 
   const SegmenterParams& params() const;
 
-  /// Changes the pool used by the following Process calls (null: single-threaded). Results do
-  /// not depend on it. Lets a caller running several Segmenters at once keep them off a shared
-  /// pool while its cores are busy anyway. Not to be called during Process.
-  void SetPool(core::ThreadPool* pool);
-
  private:
-  // The stages after the working cloud (impl_->work) is ready; `cloud` is the input.
+  // The stages after the working cloud; `cloud` is the one whose points (and colour) the
+  // object statistics read.
   void Segment(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
-               uint32_t num_valid, std::chrono::steady_clock::time_point t_start,
                SegmentationResult* result);
 
   struct Impl;

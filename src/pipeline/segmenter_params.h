@@ -1,13 +1,19 @@
 #pragma once
 
+#include <string_view>
+
 #include "clutterseg/graph/linkage_params.h"
 #include "clutterseg/optimize/plane_params.h"
+#include "clutterseg/pipeline/working_cloud.h"
 #include "clutterseg/supervoxel/supervoxel_params.h"
 
 namespace clutterseg::pipeline {
 
-/// Refinement and object extraction (docs/method.md section 6).
+/// Refinement and object extraction (docs/method.md section 6). YAML section
+/// `segmenter.objects`.
 struct ObjectParams {
+  static constexpr std::string_view kSection = "segmenter.objects";
+
   int min_object_points{150};  ///< smaller segments are dropped (label 0)
   /// A plane whose assigned surface covers at least this area is a support (table, floor,
   /// wall) and becomes background, m^2. Object faces are smaller.
@@ -17,22 +23,22 @@ struct ObjectParams {
   /// Segments whose centroid lies this far below a support plane (table edges and legs,
   /// things under the table) are background, metres (0 = keep them).
   float below_support_margin_m{0.005f};
-  float min_depth_m{0.3f};  ///< points nearer than this are ignored, metres
-  float max_depth_m{3.0f};  ///< points farther than this are ignored, metres
 
-  /// @throws std::invalid_argument naming the key and value.
+  /// @throws std::invalid_argument naming the key (`segmenter.objects.<field>`) and value.
   void ValidateOrThrow() const;
 };
 
-/// All parameters of one Segmenter. Defaults are the measured best configuration; see
-/// docs/configuration.md for every key and docs/method.md for the paper's settings.
+/// All parameters of one Segmenter, one struct per stage in stage order. Defaults are the
+/// measured best configuration; see docs/configuration.md for every key and
+/// docs/method.md for the paper's settings (config/paper.yaml).
 struct SegmenterParams {
+  PointsParams points;
   supervoxel::SupervoxelParams supervoxel;
   graph::LinkageParams linkage;
   optimize::PlaneParams planes;
   ObjectParams objects;
 
-  /// @throws std::invalid_argument naming the key and value.
+  /// Validates every section once. @throws std::invalid_argument naming the key and value.
   void ValidateOrThrow() const;
 };
 

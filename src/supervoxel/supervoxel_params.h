@@ -1,16 +1,23 @@
 #pragma once
 
+#include <string_view>
+
+#include "clutterseg/geometry/voxel_grid.h"
+
 namespace clutterseg::supervoxel {
 
-/// Parameters of the octree supervoxelizer (VCCS, docs/method.md section 1).
+/// Parameters of the octree supervoxelizer (VCCS, docs/method.md section 1). YAML section
+/// `segmenter.supervoxel`; the voxel grid's keys (`voxel_resolution_m`,
+/// `use_single_camera_transform`) are written in the same section.
 struct SupervoxelParams {
-  float voxel_resolution_m{0.0075f};  ///< leaf size of the voxel octree, metres
-  float seed_resolution_m{0.03f};     ///< spacing of supervoxel seeds, metres
-  float color_importance{0.0f};       ///< wc; 0 = geometry only (the paper)
-  float spatial_importance{1.0f};     ///< ws
-  float normal_importance{4.0f};      ///< wn
-  /// Voxelize in (x/z, y/z, log z) so voxel size grows with depth like the sensor's noise.
-  bool use_single_camera_transform{true};
+  static constexpr std::string_view kSection = "segmenter.supervoxel";
+
+  /// The voxel grid (octree leaves) the supervoxels are grown over.
+  geometry::VoxelGridParams grid;
+  float seed_resolution_m{0.03f};  ///< spacing of supervoxel seeds, metres
+  float color_importance{0.0f};    ///< wc; 0 = geometry only (the paper)
+  float spatial_importance{1.0f};  ///< ws
+  float normal_importance{4.0f};   ///< wn
   /// Re-centre and regrow this many times (VCCS and PCL: several). One pass keeps supervoxels
   /// from straddling creases between stacked objects (tests/pipeline) at about 10% less
   /// supervoxelizer time than two; quality on mOSD is the same for 0, 1 and 2.
@@ -24,10 +31,8 @@ struct SupervoxelParams {
   /// this number, never on the number of threads. Two strips halve the growth stage's
   /// latency on two cores with the same quality (mOSD, synthetic); see docs/method.md.
   int growth_regions{2};
-  /// Voxels farther than this from the camera are ignored, metres (0 = no limit).
-  float max_depth_m{0.0f};
 
-  /// @throws std::invalid_argument naming the key and value.
+  /// @throws std::invalid_argument naming the key (`segmenter.supervoxel.<field>`) and value.
   void ValidateOrThrow() const;
 };
 

@@ -31,16 +31,6 @@ double Ms(Clock::time_point a, Clock::time_point b) {
 
 using core::ForChunks;
 
-geometry::VoxelGridParams GridParams(const SupervoxelParams& p) {
-  p.ValidateOrThrow();
-  geometry::VoxelGridParams g;
-  g.voxel_resolution_m = p.voxel_resolution_m;
-  g.use_single_camera_transform = p.use_single_camera_transform;
-  g.max_depth_m = p.max_depth_m;
-  g.compute_mean_color = p.color_importance > 0.f;
-  return g;
-}
-
 inline float Dot(const core::Vec3f& a, const core::Vec3f& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
 }
@@ -111,8 +101,8 @@ struct FourCentre {
 
 }  // namespace
 
-Supervoxelizer::Supervoxelizer(const SupervoxelParams& params)
-    : params_(params), voxelizer_(GridParams(params)) {
+Supervoxelizer::Supervoxelizer(const SupervoxelParams& params, core::ThreadPool* pool)
+    : params_((params.ValidateOrThrow(), params)), pool_(pool), voxelizer_(params.grid, pool) {
   const float r = params_.seed_resolution_m;
   spatial_weight_ = params_.spatial_importance / (3.f * r * r);
   color_weight_ = params_.color_importance / (kColorNormalizer * kColorNormalizer);
@@ -127,15 +117,14 @@ float Supervoxelizer::Cost(uint32_t sv, uint32_t voxel) const {
   return d;
 }
 
-void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* pool,
-                             Supervoxels* out) {
+void Supervoxelizer::Compute(const core::PointCloud& cloud, Supervoxels* out) {
   CLUTTERSEG_DEMAND(out != nullptr);
   const Clock::time_point t0 = Clock::now();
-  voxelizer_.Voxelize(cloud, pool, &grid_);
+  voxelizer_.Voxelize(cloud, params_.color_importance > 0.f, &grid_);
   const Clock::time_point t1 = Clock::now();
-  voxelizer_.ComputeAdjacency(pool, &grid_);
+  voxelizer_.ComputeAdjacency(&grid_);
   const Clock::time_point t2 = Clock::now();
-  voxelizer_.ComputeNormals(pool, &grid_);
+  voxelizer_.ComputeNormals(&grid_);
   const Clock::time_point t3 = Clock::now();
   use_color_ = params_.color_importance > 0.f && !grid_.mean_color.empty();
   // Growth reads a voxel's centroid and normal together: keep them in one cache line.
@@ -144,7 +133,7 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* po
     feature_[v] = VoxelFeature{grid_.centroid[v], grid_.normal[v]};
   }
 
-  SelectSeeds(pool);
+  SelectSeeds();
   const Clock::time_point t4 = Clock::now();
 
   // Initial centres are the seed voxels themselves.
@@ -168,23 +157,23 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, core::ThreadPool* po
         std::clamp(std::ceil(1.8f * params_.seed_resolution_m / voxel), 1.f, 1000.f));
   }
   SplitRegions();
-  Grow(max_layers, pool);
+  Grow(max_layers);
   for (int it = 0; it < params_.refinement_iterations; ++it) {
-    Recenter(pool);
-    Grow(max_layers, pool);
+    Recenter();
+    Grow(max_layers);
   }
-  EnforceConnectivity(pool);
+  EnforceConnectivity();
   AssignLeftovers();
   const Clock::time_point t5 = Clock::now();
 
-  FillOutput(cloud, pool, out);
+  FillOutput(cloud, out);
   const Clock::time_point t6 = Clock::now();
-  timings_.voxelize_ms = Ms(t0, t1);
-  timings_.adjacency_ms = Ms(t1, t2);
-  timings_.normals_ms = Ms(t2, t3);
-  timings_.seeding_ms = Ms(t3, t4);
-  timings_.growth_ms = Ms(t4, t5);
-  timings_.output_ms = Ms(t5, t6);
+  out->timings.voxelize_ms = Ms(t0, t1);
+  out->timings.adjacency_ms = Ms(t1, t2);
+  out->timings.normals_ms = Ms(t2, t3);
+  out->timings.seeding_ms = Ms(t3, t4);
+  out->timings.growth_ms = Ms(t4, t5);
+  out->timings.output_ms = Ms(t5, t6);
 }
 
 void Supervoxelizer::PrepareChunkScratch(size_t num_chunks) {
@@ -196,7 +185,7 @@ void Supervoxelizer::PrepareChunkScratch(size_t num_chunks) {
   }
 }
 
-void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
+void Supervoxelizer::SelectSeeds() {
   const size_t num_voxels = grid_.size();
   const float cell = params_.seed_resolution_m;
   const float inv_cell = 1.f / cell;
@@ -238,7 +227,7 @@ void Supervoxelizer::SelectSeeds(core::ThreadPool* pool) {
   const float radius2 = radius * radius;
   // The search stops as soon as the count is reached: only keep / drop is needed, and most
   // candidates lie on surfaces that reach it within a quarter of the disc.
-  ForChunks(pool, num_candidates, grain, [&](size_t b, size_t e) {
+  ForChunks(pool_, num_candidates, grain, [&](size_t b, size_t e) {
     std::vector<uint8_t>& marks = chunk_marks_[b / grain];
     std::vector<uint32_t>& queue = chunk_queue_[b / grain];
     for (size_t k = b; k < e; ++k) {
@@ -321,11 +310,11 @@ void Supervoxelizer::SplitRegions() {
   if (grow_next_.size() < num_regions) grow_next_.resize(num_regions);
 }
 
-void Supervoxelizer::Grow(int max_layers, core::ThreadPool* pool) {
+void Supervoxelizer::Grow(int max_layers) {
   const size_t num_voxels = grid_.size();
   claim_.assign(num_voxels, Claim{-1, kInf});
   const size_t num_regions = region_voxel_.size() - 1;
-  ForChunks(pool, num_regions, 1, [&](size_t b, size_t e) {
+  ForChunks(pool_, num_regions, 1, [&](size_t b, size_t e) {
     for (size_t r = b; r < e; ++r) GrowRegion(r, max_layers);
   });
   owner_.resize(num_voxels);
@@ -426,14 +415,14 @@ void Supervoxelizer::GrowRegion(size_t r, int max_layers) {
   }
 }
 
-void Supervoxelizer::Recenter(core::ThreadPool* pool) {
+void Supervoxelizer::Recenter() {
   const size_t num_sv = seed_.size();
   constexpr size_t kStride = 10;
   accum_.assign(kStride * num_sv, 0.0);
   best_dist_.assign(num_sv, kInf);
   // A region's voxels belong to its own supervoxels only: regions are independent.
   const size_t num_regions = region_voxel_.size() - 1;
-  ForChunks(pool, num_regions, 1, [&](size_t rb, size_t re) {
+  ForChunks(pool_, num_regions, 1, [&](size_t rb, size_t re) {
     for (size_t r = rb; r < re; ++r) RecenterRegion(r);
   });
 }
@@ -491,7 +480,7 @@ void Supervoxelizer::RecenterRegion(size_t r) {
   }
 }
 
-void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
+void Supervoxelizer::EnforceConnectivity() {
   // Voxels stolen during growth can cut a supervoxel apart: keep only the component of its
   // seed and release the rest.
   // Branch-free breadth-first search: every neighbour is written to the queue, which keeps it
@@ -506,7 +495,7 @@ void Supervoxelizer::EnforceConnectivity(core::ThreadPool* pool) {
   const int32_t* owner = owner_.data();
   const uint32_t* offsets = grid_.adjacency_offsets.data();
   const uint32_t* adjacency = grid_.adjacency.data();
-  ForChunks(pool, num_sv, grain, [&](size_t b, size_t e) {
+  ForChunks(pool_, num_sv, grain, [&](size_t b, size_t e) {
     // Used up to `size` only; room for one more neighbourhood is made before each visit.
     std::vector<uint32_t>& queue = chunk_queue_[b / grain];
     uint8_t* visited = chunk_marks_[b / grain].data();
@@ -616,15 +605,14 @@ void Supervoxelizer::AssignLeftovers() {
   }
 }
 
-void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool,
-                                Supervoxels* out) {
+void Supervoxelizer::FillOutput(const core::PointCloud& cloud, Supervoxels* out) {
   const size_t n = cloud.size();
   const size_t num_voxels = grid_.size();
   const size_t num_sv = seed_.size();
   out->width = cloud.width;
   out->height = cloud.height;
   out->pixel_label.resize(n);
-  ForChunks(pool, n, kPointGrain, [&](size_t b, size_t e) {
+  ForChunks(pool_, n, kPointGrain, [&](size_t b, size_t e) {
     for (size_t i = b; i < e; ++i) {
       const int32_t v = grid_.point_voxel[i];
       out->pixel_label[i] = v < 0 ? -1 : owner_[static_cast<size_t>(v)];
@@ -650,7 +638,7 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
   if (chunk_queue_.size() < num_sv_chunks) chunk_queue_.resize(num_sv_chunks);
   if (chunk_list_.size() < num_sv_chunks) chunk_list_.resize(num_sv_chunks);
   nbr_count_.resize(num_sv);
-  ForChunks(pool, num_sv, kSvGrain, [&](size_t b, size_t e) {
+  ForChunks(pool_, num_sv, kSvGrain, [&](size_t b, size_t e) {
     // last_seen (reusing a chunk's uint32 scratch) holds, per supervoxel, the last s + 1 that
     // listed it as a neighbour.
     std::vector<uint32_t>& last_seen = chunk_queue_[b / kSvGrain];
@@ -708,7 +696,7 @@ void Supervoxelizer::FillOutput(const core::PointCloud& cloud, core::ThreadPool*
   out->curvature.resize(num_sv);
   out->eigenvalues.resize(num_sv);
   out->num_points.resize(num_sv);
-  ForChunks(pool, num_sv, kSvGrain, [&](size_t b, size_t e) {
+  ForChunks(pool_, num_sv, kSvGrain, [&](size_t b, size_t e) {
     for (size_t s = b; s < e; ++s) {
       const double* a = &accum_[kStride * s];
       out->num_points[s] = static_cast<uint32_t>(a[0]);

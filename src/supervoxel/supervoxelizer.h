@@ -13,19 +13,6 @@
 
 namespace clutterseg::supervoxel {
 
-/// Wall-clock time of each stage of the last Supervoxelizer::Compute, milliseconds.
-struct SupervoxelTimings {
-  double voxelize_ms{0.0};   ///< quantisation, key sort, per-voxel sums
-  double adjacency_ms{0.0};  ///< 26-neighbourhood CSR
-  double normals_ms{0.0};    ///< voxel normals and curvature
-  double seeding_ms{0.0};    ///< seed cells, occupancy filter, move to low curvature
-  double growth_ms{0.0};     ///< flow-constrained growth, refinement, connectivity, leftovers
-  double output_ms{0.0};     ///< pixel labels, supervoxel statistics and adjacency
-  double total_ms() const {
-    return voxelize_ms + adjacency_ms + normals_ms + seeding_ms + growth_ms + output_ms;
-  }
-};
-
 /// VCCS supervoxels (Papon et al. 2013; docs/method.md section 1) over an octree-leaf voxel
 /// grid, with two guarantees PCL's implementation lacks: every valid voxel (hence every finite
 /// point within range) belongs to a supervoxel, and every supervoxel's voxels form one
@@ -52,18 +39,20 @@ struct SupervoxelTimings {
 ///
 /// Thread-safety: Compute must not run concurrently on one instance (it reuses internal
 /// buffers, so nothing is allocated after the first frames); distinct instances are
-/// independent. Work inside Compute is split over `pool` so that the output is bit-identical
-/// for any pool size, including no pool.
+/// independent. Work inside Compute is split over the pool given at construction so that
+/// the output is bit-identical for any pool size, including no pool.
 class Supervoxelizer {
  public:
+  /// `pool` may be null (single-threaded) and must outlive the Supervoxelizer.
   /// @throws std::invalid_argument when `params` is invalid.
-  explicit Supervoxelizer(const SupervoxelParams& params);
+  explicit Supervoxelizer(const SupervoxelParams& params, core::ThreadPool* pool = nullptr);
 
   const SupervoxelParams& params() const { return params_; }
 
   /// Segments `cloud` (metres, camera frame; organized or not; NaN = invalid) into
-  /// supervoxels, overwriting `out` (whose buffers are reused). `pool` may be null.
-  void Compute(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
+  /// supervoxels, overwriting `out` (whose buffers are reused), with the time of each step
+  /// in out->timings.
+  void Compute(const core::PointCloud& cloud, Supervoxels* out);
 
   /// The voxel grid of the last Compute (positions in metres, camera frame).
   const geometry::VoxelGrid& voxels() const { return grid_; }
@@ -71,21 +60,19 @@ class Supervoxelizer {
   const std::vector<int32_t>& voxel_label() const { return owner_; }
   /// Number of seeds that survived the occupancy filter in the last Compute.
   size_t num_seeds() const { return num_seeds_; }
-  /// Per-stage timings of the last Compute.
-  const SupervoxelTimings& timings() const { return timings_; }
 
  private:
   // Sizes chunk_queue_ and chunk_marks_ for `num_chunks` chunks over the current voxels.
   void PrepareChunkScratch(size_t num_chunks);
-  void SelectSeeds(core::ThreadPool* pool);
+  void SelectSeeds();
   void SplitRegions();
-  void Grow(int max_layers, core::ThreadPool* pool);
+  void Grow(int max_layers);
   void GrowRegion(size_t r, int max_layers);
-  void Recenter(core::ThreadPool* pool);
+  void Recenter();
   void RecenterRegion(size_t r);
-  void EnforceConnectivity(core::ThreadPool* pool);
+  void EnforceConnectivity();
   void AssignLeftovers();
-  void FillOutput(const core::PointCloud& cloud, core::ThreadPool* pool, Supervoxels* out);
+  void FillOutput(const core::PointCloud& cloud, Supervoxels* out);
   float Cost(uint32_t sv, uint32_t voxel) const;
 
   struct VoxelFeature {
@@ -94,9 +81,9 @@ class Supervoxelizer {
   };
 
   const SupervoxelParams params_;
+  core::ThreadPool* const pool_;
   geometry::Voxelizer voxelizer_;
   geometry::VoxelGrid grid_;
-  SupervoxelTimings timings_;
   size_t num_seeds_{0};
   bool use_color_{false};
   float spatial_weight_{0.f};  // ws / (3 R^2)

@@ -7,10 +7,24 @@
 
 namespace clutterseg::supervoxel {
 
-/// Output of the supervoxelizer for one organized frame. Supervoxels are numbered 0..N-1 in
-/// a deterministic order; all per-supervoxel arrays have N entries. The adjacency is a
-/// symmetric CSR graph: the neighbours of i are `adjacency[adjacency_offsets[i] ..
-/// adjacency_offsets[i + 1])`, sorted ascending, without self loops.
+/// Wall-clock time of each step of one Supervoxelizer::Compute, milliseconds.
+struct SupervoxelTimings {
+  double voxelize_ms{0.0};   ///< quantisation, key sort, per-voxel sums
+  double adjacency_ms{0.0};  ///< 26-neighbourhood CSR
+  double normals_ms{0.0};    ///< voxel normals and curvature
+  double seeding_ms{0.0};    ///< seed cells, occupancy filter, move to low curvature
+  double growth_ms{0.0};     ///< flow-constrained growth, refinement, connectivity, leftovers
+  double output_ms{0.0};     ///< pixel labels, supervoxel statistics and adjacency
+  double total_ms() const {
+    return voxelize_ms + adjacency_ms + normals_ms + seeding_ms + growth_ms + output_ms;
+  }
+};
+
+/// Output of the supervoxelizer for one frame (organized, or unorganized with height 1).
+/// Supervoxels are numbered 0..N-1 in a deterministic order; all per-supervoxel arrays have N
+/// entries. The adjacency is a symmetric CSR graph: the neighbours of i are
+/// `adjacency[adjacency_offsets[i] .. adjacency_offsets[i + 1])`, sorted ascending, without self
+/// loops.
 struct Supervoxels {
   int width{0};
   int height{0};
@@ -32,6 +46,8 @@ struct Supervoxels {
   std::vector<double> moments;
   std::vector<uint32_t> adjacency_offsets;  ///< N + 1 entries
   std::vector<uint32_t> adjacency;          ///< 2 * edges entries
+  /// Time of each step of the Compute that produced this output (zero when made elsewhere).
+  SupervoxelTimings timings;
 
   size_t size() const { return centroid.size(); }
   size_t num_edges() const { return adjacency.size() / 2; }

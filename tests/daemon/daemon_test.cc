@@ -44,13 +44,13 @@ struct Received {
   }
 };
 
-config::DaemonConfig MemqConfig() {
-  config::DaemonConfig c;
-  c.lcm_url = "memq://";
-  c.speed = config::Speed::kMax;
-  c.threads = 2;
-  c.status_period_s = 0.05;
-  c.log_level = config::LogLevel::kWarn;
+DaemonConfig MemqConfig() {
+  DaemonConfig c;
+  c.lcm.url = "memq://";
+  c.capture.speed = Speed::kMax;
+  c.processing.threads = 2;
+  c.status.period_s = 0.05;
+  c.log_level = LogLevel::kWarn;
   return c;
 }
 
@@ -62,17 +62,17 @@ struct RunResult {
   Received got;
 };
 
-RunResult RunDaemon(const config::DaemonConfig& c, std::unique_ptr<core::FrameSource> source,
+RunResult RunDaemon(const DaemonConfig& c, std::unique_ptr<core::FrameSource> source,
                     const std::function<void(Daemon*)>& during = {}) {
-  LcmBus bus(c.lcm_url);
+  LcmBus bus(c.lcm.url);
   RunResult run;
-  bus.Subscribe<clutterseg::objects_t>(c.objects_channel, [&run](const clutterseg::objects_t& m) {
-    run.got.OnObjects(nullptr, {}, &m);
-  });
+  bus.Subscribe<clutterseg::objects_t>(
+      c.lcm.objects_channel,
+      [&run](const clutterseg::objects_t& m) { run.got.OnObjects(nullptr, {}, &m); });
   bus.Subscribe<clutterseg::label_image_t>(
-      c.labels_channel,
+      c.lcm.labels_channel,
       [&run](const clutterseg::label_image_t& m) { run.got.OnLabels(nullptr, {}, &m); });
-  bus.Subscribe<clutterseg::status_t>(c.status_channel, [&run](const clutterseg::status_t& m) {
+  bus.Subscribe<clutterseg::status_t>(c.lcm.status_channel, [&run](const clutterseg::status_t& m) {
     run.got.OnStatus(nullptr, {}, &m);
   });
   {
@@ -114,8 +114,8 @@ class DaemonOni : public ::testing::Test {
 
 TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
   if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
-  config::DaemonConfig c = MemqConfig();
-  c.pipeline_depth = 2;
+  DaemonConfig c = MemqConfig();
+  c.processing.pipeline_depth = 2;
   const RunResult run = RunDaemon(c, OniSource());
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   ASSERT_EQ(run.got.objects.size(), static_cast<size_t>(kFrames));
@@ -146,7 +146,7 @@ TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
   EXPECT_EQ(last.frames_captured, kFrames);
   EXPECT_EQ(last.frames_processed, kFrames);
   EXPECT_EQ(last.frames_dropped, 0);
-  EXPECT_EQ(last.num_stages, static_cast<int>(kNumStages));
+  EXPECT_EQ(last.num_stages, static_cast<int>(pipeline::kNumStages));
   EXPECT_EQ(run.stats.frames_published, static_cast<uint64_t>(kFrames));
 }
 
@@ -158,12 +158,12 @@ TEST(DaemonScripted, OutputDoesNotDependOnThreadsOrPipelineDepth) {
   testutil::Script s;
   s.live = false;
   s.total_frames = 4;
-  config::DaemonConfig a = MemqConfig();
-  a.threads = 1;
-  a.pipeline_depth = 1;
-  config::DaemonConfig b = MemqConfig();
-  b.threads = 2;
-  b.pipeline_depth = 3;
+  DaemonConfig a = MemqConfig();
+  a.processing.threads = 1;
+  a.processing.pipeline_depth = 1;
+  DaemonConfig b = MemqConfig();
+  b.processing.threads = 2;
+  b.processing.pipeline_depth = 3;
   const RunResult ra = RunDaemon(a, std::make_unique<testutil::ScriptedSource>(frames, s));
   const RunResult rb = RunDaemon(b, std::make_unique<testutil::ScriptedSource>(frames, s));
   ASSERT_EQ(ra.got.objects.size(), 4u);
@@ -192,11 +192,11 @@ TEST(DaemonScripted, LiveSourceDropsOldestAndAccountsForEveryFrame) {
   s.live = true;
   s.period_us = 1000;  // far faster than segmentation
   s.total_frames = -1;
-  config::DaemonConfig c = MemqConfig();
-  c.speed = config::Speed::kRealtime;
-  c.queue_capacity = 2;
-  c.max_frames = 8;
-  c.publish_labels = false;
+  DaemonConfig c = MemqConfig();
+  c.capture.speed = Speed::kRealtime;
+  c.capture.queue_capacity = 2;
+  c.capture.max_frames = 8;
+  c.lcm.publish_labels = false;
   const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   ASSERT_EQ(run.got.objects.size(), 8u);
@@ -221,10 +221,10 @@ TEST(DaemonScripted, DeviceLossReconnectsWithBackoff) {
   s.failed_reopens = 2;
   std::atomic<int> opens{0};
   s.opens = &opens;
-  config::DaemonConfig c = MemqConfig();
-  c.reconnect_backoff_min_s = 0.01;
-  c.reconnect_backoff_max_s = 0.02;
-  c.publish_labels = false;
+  DaemonConfig c = MemqConfig();
+  c.capture.reconnect_backoff_min_s = 0.01;
+  c.capture.reconnect_backoff_max_s = 0.02;
+  c.lcm.publish_labels = false;
   const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   EXPECT_EQ(run.stats.reconnect_attempts, 3u);
@@ -244,8 +244,8 @@ TEST(DaemonScripted, SourceErrorEndsTheRunWithExitCodeOne) {
   s.live = false;
   s.total_frames = 10;
   s.error_after = 2;
-  config::DaemonConfig c = MemqConfig();
-  c.publish_labels = false;
+  DaemonConfig c = MemqConfig();
+  c.lcm.publish_labels = false;
   const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
   EXPECT_EQ(run.exit_code, kExitRuntimeError);
   EXPECT_NE(run.error.find("scripted sensor fault"), std::string::npos) << run.error;
@@ -261,8 +261,8 @@ TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
   s.live = false;
   s.total_frames = 5;
   s.gate_after = 2;
-  config::DaemonConfig c = MemqConfig();
-  c.publish_labels = false;
+  DaemonConfig c = MemqConfig();
+  c.lcm.publish_labels = false;
   auto source = std::make_unique<testutil::ScriptedSource>(frames, s);
   testutil::ScriptedSource* raw = source.get();
   const RunResult run = RunDaemon(c, std::move(source), [&](Daemon* d) {
@@ -291,9 +291,9 @@ TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
   s.live = true;
   s.period_us = 5000;
   s.total_frames = -1;
-  config::DaemonConfig c = MemqConfig();
-  c.speed = config::Speed::kRealtime;
-  c.publish_labels = false;
+  DaemonConfig c = MemqConfig();
+  c.capture.speed = Speed::kRealtime;
+  c.lcm.publish_labels = false;
   const RunResult run =
       RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s), [](Daemon* d) {
         while (d->stats().frames_published < 2)

@@ -88,11 +88,18 @@ TEST(LcmTypes, IntrinsicsPlaneObjectStageTimesRoundTrip) {
   EXPECT_EQ(o2.bbox_max_u, 35);
   EXPECT_EQ(o2.support_plane_id, 2);
 
+  pipeline::StageTimes times;
+  times[pipeline::Stage::kVoxelize] = 4.5;
+  times.total_ms = 21.0;
   clutterseg::stage_times_t t{};
-  t.voxelize_ms = 4.5f;
-  t.total_ms = 21.f;
+  ToStageTimesMessage(times, &t);
   const auto t2 = RoundTrip(t);
-  EXPECT_EQ(t2.voxelize_ms, 4.5f);
+  ASSERT_EQ(t2.num_stages, static_cast<int32_t>(pipeline::kNumStages));
+  // Named after the segmenter's stage table, in its order.
+  for (size_t i = 0; i < pipeline::kNumStages; ++i) {
+    EXPECT_EQ(t2.stage_names[i], pipeline::StageTable()[i].name);
+  }
+  EXPECT_EQ(t2.stage_ms[static_cast<size_t>(pipeline::Stage::kVoxelize)], 4.5f);
   EXPECT_EQ(t2.total_ms, 21.f);
 }
 
@@ -167,8 +174,7 @@ TEST(LabelImage, EveryCompressionRoundTripsThroughLcm) {
   info.utime = 5;
   info.frame_seq = 6;
   info.camera_name = "cam";
-  for (auto c : {config::LabelCompression::kNone, config::LabelCompression::kRle,
-                 config::LabelCompression::kZlib}) {
+  for (auto c : {LabelCompression::kNone, LabelCompression::kRle, LabelCompression::kZlib}) {
     clutterseg::label_image_t msg;
     EncodeLabelImage(labels, info, c, &msg);
     EXPECT_EQ(msg.size, static_cast<int32_t>(msg.data.size()));
@@ -180,14 +186,13 @@ TEST(LabelImage, EveryCompressionRoundTripsThroughLcm) {
     ASSERT_EQ(decoded.width, 64);
     ASSERT_EQ(decoded.height, 48);
     for (size_t i = 0; i + 1 < labels.data.size(); ++i) {
-      ASSERT_EQ(decoded.data[i], labels.data[i])
-          << "pixel " << i << " compression " << config::ToString(c);
+      ASSERT_EQ(decoded.data[i], labels.data[i]) << "pixel " << i << " compression " << ToString(c);
     }
     EXPECT_EQ(decoded.data.back(), 65535u);
   }
   clutterseg::label_image_t none, zlib;
-  EncodeLabelImage(labels, info, config::LabelCompression::kNone, &none);
-  EncodeLabelImage(labels, info, config::LabelCompression::kZlib, &zlib);
+  EncodeLabelImage(labels, info, LabelCompression::kNone, &none);
+  EncodeLabelImage(labels, info, LabelCompression::kZlib, &zlib);
   EXPECT_EQ(none.data.size(), 64u * 48u * 2u);
   EXPECT_LT(zlib.data.size(), none.data.size() / 4);
 }
@@ -197,22 +202,22 @@ TEST(LabelImage, MalformedMessagesAreRejected) {
   FrameInfo info;
   clutterseg::label_image_t msg;
   core::LabelImage out;
-  EncodeLabelImage(labels, info, config::LabelCompression::kRle, &msg);
+  EncodeLabelImage(labels, info, LabelCompression::kRle, &msg);
   msg.data.pop_back();
   msg.size = static_cast<int32_t>(msg.data.size());
   EXPECT_THROW(DecodeLabelImage(msg, &out), std::runtime_error);
 
-  EncodeLabelImage(labels, info, config::LabelCompression::kZlib, &msg);
+  EncodeLabelImage(labels, info, LabelCompression::kZlib, &msg);
   msg.data[msg.data.size() / 2] ^= 0xff;
   msg.data.resize(msg.data.size() - 3);
   msg.size = static_cast<int32_t>(msg.data.size());
   EXPECT_THROW(DecodeLabelImage(msg, &out), std::runtime_error);
 
-  EncodeLabelImage(labels, info, config::LabelCompression::kNone, &msg);
+  EncodeLabelImage(labels, info, LabelCompression::kNone, &msg);
   msg.width = 17;  // size no longer matches
   EXPECT_THROW(DecodeLabelImage(msg, &out), std::runtime_error);
 
-  EncodeLabelImage(labels, info, config::LabelCompression::kNone, &msg);
+  EncodeLabelImage(labels, info, LabelCompression::kNone, &msg);
   msg.compression = 9;
   EXPECT_THROW(DecodeLabelImage(msg, &out), std::runtime_error);
 }
@@ -223,7 +228,7 @@ TEST(ObjectsMessage, CopiesTheSegmentation) {
   r.height = 2;
   r.num_valid_points = 8;
   r.num_supervoxels = 2;
-  r.times.planes_ms = 2.5;
+  r.times[pipeline::Stage::kPlanes] = 2.5;
   pipeline::Plane plane;
   plane.id = 1;
   plane.normal = {0.f, -1.f, 0.f};
@@ -258,7 +263,7 @@ TEST(ObjectsMessage, CopiesTheSegmentation) {
   EXPECT_EQ(m.objects[0].obb_axes[2][2], 1.f);
   EXPECT_EQ(m.objects[0].mean_color[1], 20);
   EXPECT_EQ(m.objects[0].bbox_max_u, 3);
-  EXPECT_EQ(m.times.planes_ms, 2.5f);
+  EXPECT_EQ(m.times.stage_ms[static_cast<size_t>(pipeline::Stage::kPlanes)], 2.5f);
   // Buffers are reused: a smaller result shrinks the arrays.
   r.objects.clear();
   ToObjectsMessage(r, info, &m);

@@ -43,7 +43,7 @@ std::string WriteRun(const std::string& name, int frames, float shift_m, int dro
     FrameInfo info;
     info.frame_seq = f;
     clutterseg::label_image_t l;
-    EncodeLabelImage(labels, info, config::LabelCompression::kRle, &l);
+    EncodeLabelImage(labels, info, LabelCompression::kRle, &l);
     bus.PublishMessage("CLUTTERSEG_LABELS", l);
   }
   return path;

@@ -6,26 +6,26 @@
 #include <cstdint>
 #include <string>
 
-#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/daemon/daemon_config.h"
 #include "tests/fuzz/fuzz_check.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);
-  clutterseg::config::DaemonConfig config;
+  clutterseg::daemon::DaemonConfig config;
   try {
-    config = clutterseg::config::ParseConfig(text, "fuzz.yaml");
+    config = clutterseg::daemon::ParseConfig(text, "fuzz.yaml");
   } catch (const clutterseg::config::ConfigError&) {
     return 0;
   }
   config.ValidateOrThrow();  // ParseConfig validated it: throwing here is a finding.
-  const std::string yaml = clutterseg::config::ConfigToYaml(config);
-  clutterseg::config::DaemonConfig again;
+  const std::string yaml = clutterseg::daemon::ConfigToYaml(config);
+  clutterseg::daemon::DaemonConfig again;
   try {
-    again = clutterseg::config::ParseConfig(yaml, "round-trip.yaml");
+    again = clutterseg::daemon::ParseConfig(yaml, "round-trip.yaml");
   } catch (const clutterseg::config::ConfigError& e) {
     std::fprintf(stderr, "round trip failed: %s\n--- yaml ---\n%s\n", e.what(), yaml.c_str());
     std::abort();
   }
-  CLUTTERSEG_FUZZ_CHECK(clutterseg::config::ConfigToYaml(again) == yaml);
+  CLUTTERSEG_FUZZ_CHECK(clutterseg::daemon::ConfigToYaml(again) == yaml);
   return 0;
 }

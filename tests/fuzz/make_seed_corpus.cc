@@ -11,10 +11,10 @@
 #include <string>
 #include <vector>
 
-#include "clutterseg/config/daemon_config.h"
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/types.h"
+#include "clutterseg/daemon/daemon_config.h"
 #include "clutterseg/drivers/oni/oni_writer.h"
 #include "clutterseg/io/pcd.h"
 #include "clutterseg/io/png_io.h"
@@ -111,7 +111,7 @@ void MakePng(const fs::path& dir) {
 }
 
 void MakeConfig(const fs::path& dir) {
-  WriteText(dir / "defaults.yaml", config::ConfigToYaml(config::DaemonConfig{}));
+  WriteText(dir / "defaults.yaml", daemon::ConfigToYaml(daemon::DaemonConfig{}));
   WriteText(dir / "empty.yaml", "");
   WriteText(dir / "partial.yaml",
             "source: synthetic\nspeed: max\nprocessing:\n  threads: 2\n  max_frames: 10\n"

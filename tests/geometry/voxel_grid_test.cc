@@ -83,7 +83,7 @@ TEST(VoxelGridParams, ValidateRejectsBadValuesNamingTheKey) {
     EXPECT_NE(std::string(e.what()).find("voxel_resolution_m"), std::string::npos);
   }
   p = {};
-  p.max_depth_m = -1.f;
+  p.voxel_resolution_m = std::nanf("");
   EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
   EXPECT_THROW(Voxelizer{p}, std::invalid_argument);
 }
@@ -101,7 +101,7 @@ TEST(VoxelGrid, KeysCountsAndCentroidsOfAHandMadeCloud) {
                 core::PackRgba({0, 0, 0}),    core::PackRgba({100, 100, 100})};
   Voxelizer dut(Euclidean(0.01f));
   VoxelGrid grid;
-  dut.Compute(cloud, nullptr, &grid);
+  dut.Compute(cloud, true, &grid);
   ASSERT_EQ(grid.size(), 2u);
   // Key order is (x, y, z): (0, 0, 100) before (1, 0, 100).
   EXPECT_EQ(grid.coord[0].x, 0);
@@ -154,12 +154,6 @@ TEST(VoxelGrid, NegativeCoordinatesFloorAndTheCameraTransformScalesWithDepth) {
   ASSERT_TRUE(camera.Quantize({0.001f, 0.001f, 2.0f}, &a));
   ASSERT_TRUE(camera.Quantize({0.016f, 0.001f, 2.0f}, &b));
   EXPECT_EQ(a.x, b.x);
-
-  VoxelGridParams limited = Euclidean(0.01f);
-  limited.max_depth_m = 1.f;
-  Voxelizer near_only(limited);
-  EXPECT_TRUE(near_only.Quantize({0.f, 0.f, 0.99f}, &c));
-  EXPECT_FALSE(near_only.Quantize({0.f, 0.f, 1.01f}, &c));
 }
 
 // The camera transform's quantisation (its own vectorised logarithm) against a double
@@ -208,7 +202,7 @@ TEST(VoxelGrid, AdjacencyEqualsBruteForce26Neighbourhood) {
       }
       Voxelizer dut(camera ? CameraSpace(0.01f) : Euclidean(0.01f));
       VoxelGrid grid;
-      dut.Compute(cloud, nullptr, &grid);
+      dut.Compute(cloud, true, &grid);
       const size_t n = grid.size();
       ASSERT_GT(n, 500u);
       ASSERT_EQ(grid.adjacency_offsets.size(), n + 1);
@@ -255,7 +249,7 @@ TEST(VoxelGrid, PlaneNormalsPointToTheCameraAndMatchThePlane) {
       const core::PointCloud cloud = PlaneCloud(n, -1.0f);  // n.p = -1: plane faces the camera
       Voxelizer dut(camera ? CameraSpace(0.0075f) : Euclidean(0.0075f));
       VoxelGrid grid;
-      dut.Compute(cloud, nullptr, &grid);
+      dut.Compute(cloud, true, &grid);
       ASSERT_GT(grid.size(), 1000u);
       const float len = std::sqrt(n.x * n.x + n.y * n.y + n.z * n.z);
       size_t checked = 0, bad = 0;
@@ -294,7 +288,7 @@ TEST(VoxelGrid, ACornerHasHighCurvatureAndTwoNormalFamilies) {
   }
   Voxelizer dut(CameraSpace(0.0075f));
   VoxelGrid grid;
-  dut.Compute(cloud, nullptr, &grid);
+  dut.Compute(cloud, true, &grid);
   float max_curvature_at_edge = 0.f;
   for (size_t v = 0; v < grid.size(); ++v) {
     const core::Vec3f& c = grid.centroid[v];
@@ -316,13 +310,13 @@ TEST(VoxelGrid, OutputIsIdenticalForAnyPoolSizeAndReuse) {
   for (auto& p : cloud.xyz) p.z += noise(rng);
   Voxelizer reference_dut(CameraSpace(0.0075f));
   VoxelGrid reference;
-  reference_dut.Compute(cloud, nullptr, &reference);
+  reference_dut.Compute(cloud, true, &reference);
   for (int threads : {1, 2, 3}) {
     core::ThreadPool pool(threads);
-    Voxelizer dut(CameraSpace(0.0075f));
+    Voxelizer dut(CameraSpace(0.0075f), &pool);
     VoxelGrid grid;
-    dut.Compute(RandomCloud(5, 3000), &pool, &grid);  // a different frame first
-    dut.Compute(cloud, &pool, &grid);
+    dut.Compute(RandomCloud(5, 3000), true, &grid);  // a different frame first
+    dut.Compute(cloud, true, &grid);
     EXPECT_EQ(grid.point_voxel, reference.point_voxel) << threads;
     EXPECT_EQ(grid.key, reference.key);
     EXPECT_EQ(grid.num_points, reference.num_points);
@@ -344,14 +338,14 @@ TEST(VoxelGrid, EmptyAndAllInvalidClouds) {
   Voxelizer dut(VoxelGridParams{});
   VoxelGrid grid;
   core::PointCloud empty;
-  dut.Compute(empty, nullptr, &grid);
+  dut.Compute(empty, true, &grid);
   EXPECT_EQ(grid.size(), 0u);
   EXPECT_EQ(grid.adjacency_offsets, std::vector<uint32_t>{0});
   core::PointCloud nan_cloud;
   nan_cloud.width = 4;
   nan_cloud.height = 4;
   nan_cloud.xyz.assign(16, {kNaN, kNaN, kNaN});
-  dut.Compute(nan_cloud, nullptr, &grid);
+  dut.Compute(nan_cloud, true, &grid);
   EXPECT_EQ(grid.size(), 0u);
   EXPECT_EQ(grid.point_voxel, std::vector<int32_t>(16, -1));
 }

@@ -261,7 +261,7 @@ TEST(PatchFeatures, SupervoxelMomentsGiveThePixelResult) {
   testing::Render(scene, &cloud, &surface);
   supervoxel::Supervoxelizer svz{supervoxel::SupervoxelParams{}};
   supervoxel::Supervoxels sv;
-  svz.Compute(cloud, nullptr, &sv);
+  svz.Compute(cloud, &sv);
   ASSERT_GT(sv.size(), 100u);
   ASSERT_EQ(sv.moments.size(), 10 * sv.size());
   PatchFeatures from_moments;

@@ -27,7 +27,7 @@ struct Frame {
 Frame Load(const std::string& rel) {
   Frame fr;
   fr.cloud = io::ReadPcd((clutterseg::testing::DataDir() / rel).string());
-  supervoxel::Supervoxelizer(supervoxel::SupervoxelParams{}).Compute(fr.cloud, nullptr, &fr.sv);
+  supervoxel::Supervoxelizer(supervoxel::SupervoxelParams{}).Compute(fr.cloud, &fr.sv);
   graph::PatchFeatureExtractor().Compute(fr.cloud, fr.sv, &fr.f);
   return fr;
 }

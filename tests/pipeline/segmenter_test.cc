@@ -232,7 +232,7 @@ TEST_F(SegmenterTest, ProcessDepthEqualsBackProjectionThenProcess) {
   core::PointCloud cloud;
   core::DepthToPointCloud(frame.depth, scene_params.intrinsics, &frame.color, &cloud);
   // A depth range that cuts the scene, so that the restriction matters.
-  params_.objects.max_depth_m = 1.4f;
+  params_.points.max_depth_m = 1.4f;
   SegmentationResult reference;
   Segmenter serial(params_);
   serial.Process(cloud, scene_params.intrinsics, &reference);
@@ -263,8 +263,8 @@ TEST_F(SegmenterTest, WorkingCloudKeepsExactlyTheFinitePointsInTheDepthRange) {
   constexpr float kInf = std::numeric_limits<float>::infinity();
   const float specials[] = {
       std::numeric_limits<float>::quiet_NaN(), kInf, -kInf, 0.f, -0.f, 1e-30f, 1e30f};
-  params_.objects.min_depth_m = 0.5f;
-  params_.objects.max_depth_m = 3.f;
+  params_.points.min_depth_m = 0.5f;
+  params_.points.max_depth_m = 3.f;
   std::mt19937 rng(11);
   std::uniform_real_distribution<float> coord(-1.f, 1.f), depth(0.f, 4.f);
   std::uniform_int_distribution<int> pick(0, 20);

@@ -139,7 +139,7 @@ core::DepthImage Tabletop(int width, int height) {
 
 SegmenterParams FarParams() {
   SegmenterParams params;
-  params.objects.max_depth_m = 100.f;
+  params.points.max_depth_m = 100.f;
   return params;
 }
 

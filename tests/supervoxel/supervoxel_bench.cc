@@ -21,14 +21,14 @@ void RunBench(benchmark::State& state, const core::PointCloud& cloud, bool camer
   const int threads = static_cast<int>(state.range(0));
   core::ThreadPool pool(threads);
   SupervoxelParams params;
-  params.use_single_camera_transform = camera_transform;
-  Supervoxelizer dut(params);
+  params.grid.use_single_camera_transform = camera_transform;
+  Supervoxelizer dut(params, &pool);
   Supervoxels out;
-  dut.Compute(cloud, &pool, &out);  // warm-up: buffers reach their steady size
+  dut.Compute(cloud, &out);  // warm-up: buffers reach their steady size
   SupervoxelTimings sum;
   for (auto _ : state) {
-    dut.Compute(cloud, &pool, &out);
-    const SupervoxelTimings& t = dut.timings();
+    dut.Compute(cloud, &out);
+    const SupervoxelTimings& t = out.timings;
     sum.voxelize_ms += t.voxelize_ms;
     sum.adjacency_ms += t.adjacency_ms;
     sum.normals_ms += t.normals_ms;

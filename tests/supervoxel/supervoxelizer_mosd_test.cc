@@ -46,10 +46,10 @@ TEST_P(MosdFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
 
   for (bool camera_transform : {true, false}) {
     SupervoxelParams params;
-    params.use_single_camera_transform = camera_transform;
+    params.grid.use_single_camera_transform = camera_transform;
     Supervoxelizer dut(params);
     Supervoxels out;
-    dut.Compute(cloud, nullptr, &out);
+    dut.Compute(cloud, &out);
     for (size_t i = 0; i < cloud.size(); ++i) {
       ASSERT_EQ(out.pixel_label[i] >= 0, core::IsValid(cloud.xyz[i])) << "pixel " << i;
     }
@@ -69,8 +69,9 @@ TEST_P(MosdFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
                 dut.num_seeds(), q.supervoxels, q.leaked_fraction);
 
     core::ThreadPool pool(2);
+    Supervoxelizer parallel_dut(params, &pool);
     Supervoxels parallel;
-    dut.Compute(cloud, &pool, &parallel);
+    parallel_dut.Compute(cloud, &parallel);
     EXPECT_EQ(parallel.pixel_label, out.pixel_label);
     EXPECT_EQ(parallel.adjacency, out.adjacency);
     EXPECT_EQ(parallel.curvature, out.curvature);

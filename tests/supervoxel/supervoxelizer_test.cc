@@ -23,9 +23,9 @@ using testing::Scene;
 
 Supervoxels Segment(const core::PointCloud& cloud, const SupervoxelParams& params = {},
                     core::ThreadPool* pool = nullptr) {
-  Supervoxelizer dut(params);
+  Supervoxelizer dut(params, pool);
   Supervoxels out;
-  dut.Compute(cloud, pool, &out);
+  dut.Compute(cloud, &out);
   return out;
 }
 
@@ -105,7 +105,7 @@ TEST(SupervoxelParams, ValidateRejectsBadValuesNamingTheKey) {
     return std::string();
   };
   SupervoxelParams p;
-  p.voxel_resolution_m = 0.f;
+  p.grid.voxel_resolution_m = 0.f;
   EXPECT_NE(message(p).find("voxel_resolution_m"), std::string::npos);
   p = {};
   p.seed_resolution_m = 0.001f;
@@ -123,10 +123,7 @@ TEST(SupervoxelParams, ValidateRejectsBadValuesNamingTheKey) {
   p.growth_regions = 0;
   EXPECT_NE(message(p).find("growth_regions"), std::string::npos);
   p = {};
-  p.max_depth_m = std::nanf("");
-  EXPECT_NE(message(p).find("max_depth_m"), std::string::npos);
-  p = {};
-  p.voxel_resolution_m = -1.f;
+  p.grid.voxel_resolution_m = -1.f;
   EXPECT_THROW(Supervoxelizer{p}, std::invalid_argument);
 }
 
@@ -135,10 +132,10 @@ TEST(Supervoxelizer, EveryFinitePointIsLabelledOnATableScene) {
     for (bool camera_transform : {true, false}) {
       const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, noise_mm);
       SupervoxelParams params;
-      params.use_single_camera_transform = camera_transform;
+      params.grid.use_single_camera_transform = camera_transform;
       Supervoxelizer dut(params);
       Supervoxels out;
-      dut.Compute(scene.cloud, nullptr, &out);
+      dut.Compute(scene.cloud, &out);
       SCOPED_TRACE(::testing::Message()
                    << "noise " << noise_mm << " transform " << camera_transform);
       ExpectWellFormed(scene.cloud, out);
@@ -196,7 +193,7 @@ TEST(Supervoxelizer, SupervoxelsOfAFlatPlaneMatchTheSeedSpacing) {
   const core::PointCloud cloud = testing::FrontalPlane(1.0, 0.5, k);
   for (bool camera_transform : {true, false}) {
     SupervoxelParams params;
-    params.use_single_camera_transform = camera_transform;
+    params.grid.use_single_camera_transform = camera_transform;
     const Supervoxels out = Segment(cloud, params);
     ExpectWellFormed(cloud, out);
     const double expected = 1.0 / (params.seed_resolution_m * params.seed_resolution_m);
@@ -216,7 +213,7 @@ TEST(Supervoxelizer, SupervoxelsAreConnectedInTheVoxelGraph) {
     const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, noise_mm);
     Supervoxelizer dut{SupervoxelParams{}};
     Supervoxels out;
-    dut.Compute(scene.cloud, nullptr, &out);
+    dut.Compute(scene.cloud, &out);
     const geometry::VoxelGrid& g = dut.voxels();
     const std::vector<int32_t>& label = dut.voxel_label();
     ASSERT_EQ(label.size(), g.size());
@@ -250,7 +247,7 @@ TEST(Supervoxelizer, AdjacencyIsExactlyTheVoxelContacts) {
   const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 2.0);
   Supervoxelizer dut{SupervoxelParams{}};
   Supervoxels out;
-  dut.Compute(scene.cloud, nullptr, &out);
+  dut.Compute(scene.cloud, &out);
   const geometry::VoxelGrid& g = dut.voxels();
   const std::vector<int32_t>& label = dut.voxel_label();
   std::vector<std::vector<uint32_t>> expected(out.size());
@@ -316,7 +313,7 @@ TEST(Supervoxelizer, OutputIsIdenticalForAnyPoolSize) {
     for (float color : {0.f, 0.5f}) {
       for (int regions : {1, 2, 3}) {
         SupervoxelParams params;
-        params.use_single_camera_transform = camera_transform;
+        params.grid.use_single_camera_transform = camera_transform;
         params.color_importance = color;
         params.growth_regions = regions;
         const Supervoxels reference = Segment(scene.cloud, params, nullptr);
@@ -357,12 +354,12 @@ TEST(Supervoxelizer, ReusedInstanceGivesTheSameResultAsAFreshOne) {
   const Scene a = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 2.0);
   const Scene b = RenderTableScene({{-0.1, -0.1, 0.1, 0.1, 0.3}}, 1.2, 1.0, 1.0);
   core::ThreadPool pool(2);
-  Supervoxelizer dut{SupervoxelParams{}};
+  Supervoxelizer dut{SupervoxelParams{}, &pool};
   Supervoxels out;
-  dut.Compute(a.cloud, &pool, &out);
-  dut.Compute(b.cloud, &pool, &out);
+  dut.Compute(a.cloud, &out);
+  dut.Compute(b.cloud, &out);
   ExpectSameOutput(Segment(b.cloud), out);
-  dut.Compute(a.cloud, &pool, &out);
+  dut.Compute(a.cloud, &out);
   ExpectSameOutput(Segment(a.cloud), out);
 }
 
@@ -400,11 +397,11 @@ TEST(Supervoxelizer, UsesColourWhenAskedTo) {
 
 TEST(Supervoxelizer, DegenerateCloudsGiveValidTinyResults) {
   core::ThreadPool pool(2);
-  Supervoxelizer dut{SupervoxelParams{}};
+  Supervoxelizer dut{SupervoxelParams{}, &pool};
   Supervoxels out;
 
   core::PointCloud empty;
-  dut.Compute(empty, &pool, &out);
+  dut.Compute(empty, &out);
   EXPECT_EQ(out.size(), 0u);
   EXPECT_TRUE(out.pixel_label.empty());
   ASSERT_EQ(out.adjacency_offsets.size(), 1u);
@@ -413,13 +410,13 @@ TEST(Supervoxelizer, DegenerateCloudsGiveValidTinyResults) {
   nan_cloud.width = 64;
   nan_cloud.height = 48;
   nan_cloud.xyz.assign(64 * 48, {core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth});
-  dut.Compute(nan_cloud, &pool, &out);
+  dut.Compute(nan_cloud, &out);
   EXPECT_EQ(out.size(), 0u);
   EXPECT_EQ(out.pixel_label, std::vector<int32_t>(64 * 48, -1));
 
   core::PointCloud one = nan_cloud;
   one.xyz[100] = {0.1f, 0.05f, 0.9f};
-  dut.Compute(one, &pool, &out);
+  dut.Compute(one, &out);
   ExpectWellFormed(one, out);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out.pixel_label[100], 0);
@@ -433,7 +430,7 @@ TEST(Supervoxelizer, DegenerateCloudsGiveValidTinyResults) {
   loose.height = 1;
   loose.xyz = {
       {0.f, 0.f, 1.f}, {0.001f, 0.f, 1.f}, {0.f, 0.f, -1.f}, {1e9f, 0.f, 1.f}, {0.f, 0.f, 50.f}};
-  dut.Compute(loose, nullptr, &out);
+  dut.Compute(loose, &out);
   ASSERT_EQ(out.pixel_label.size(), 5u);
   EXPECT_EQ(out.pixel_label[0], out.pixel_label[1]);
   EXPECT_GE(out.pixel_label[0], 0);
@@ -454,7 +451,7 @@ TEST(Supervoxelizer, UnseededComponentsBecomeTheirOwnSupervoxels) {
   cloud.xyz[strays[2]] = {-0.5f, 0.4f, 1.2f};
   Supervoxelizer dut{SupervoxelParams{}};
   Supervoxels out;
-  dut.Compute(cloud, nullptr, &out);
+  dut.Compute(cloud, &out);
   ExpectWellFormed(cloud, out);
   EXPECT_EQ(out.size(), dut.num_seeds() + 3);
   for (size_t i : strays) {
@@ -465,25 +462,6 @@ TEST(Supervoxelizer, UnseededComponentsBecomeTheirOwnSupervoxels) {
   }
   EXPECT_NE(out.pixel_label[strays[0]], out.pixel_label[strays[1]]);
   EXPECT_NE(out.pixel_label[strays[1]], out.pixel_label[strays[2]]);
-}
-
-TEST(Supervoxelizer, MaxDepthDropsFarPoints) {
-  const Scene scene = RenderTableScene(DefaultBoxes(), 0.8, 0.7, 0.0);
-  SupervoxelParams params;
-  params.max_depth_m = 1.0f;
-  const Supervoxels out = Segment(scene.cloud, params);
-  size_t far = 0;
-  for (size_t i = 0; i < scene.cloud.size(); ++i) {
-    const core::Vec3f& p = scene.cloud.xyz[i];
-    if (!core::IsValid(p)) continue;
-    if (p.z > 1.0f) {
-      ++far;
-      EXPECT_EQ(out.pixel_label[i], -1);
-    } else {
-      EXPECT_GE(out.pixel_label[i], 0);
-    }
-  }
-  EXPECT_GT(far, 1000u);
 }
 
 }  // namespace

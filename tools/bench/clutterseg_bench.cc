@@ -12,7 +12,6 @@
 #include <exception>
 #include <fstream>
 #include <iostream>
-#include <latch>
 #include <memory>
 #include <sstream>
 #include <stdexcept>
@@ -26,6 +25,7 @@
 #include "clutterseg/config/segmenter_keys.h"
 #include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/segmenter.h"
 #include "clutterseg/pipeline/segmenter_params.h"
 #include "tools/bench/alloc_counter.h"
@@ -84,32 +84,23 @@ double Median(std::vector<double> v) {
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-// The reported stages: the parts of the supervoxelizer ("sv statistics" is its remainder:
-// per-supervoxel moments, normals and adjacency), then the later stages.
+// The reported stages: pipeline::StageTable() in order, then the whole Process call.
 struct StageDef {
-  const char* name;
-  double (*get)(const pipeline::StageTimes&);
+  std::string name;
+  double (*get)(const pipeline::StageTimes&, size_t);
+  size_t index;
 };
 
 const std::vector<StageDef>& Stages() {
-  static const std::vector<StageDef> kStages = {
-      {"points", [](const pipeline::StageTimes& t) { return t.points_ms; }},
-      {"voxelize", [](const pipeline::StageTimes& t) { return t.voxelize_ms; }},
-      {"normals", [](const pipeline::StageTimes& t) { return t.normals_ms; }},
-      {"seeding", [](const pipeline::StageTimes& t) { return t.seeding_ms; }},
-      {"growth", [](const pipeline::StageTimes& t) { return t.growth_ms; }},
-      {"sv statistics",
-       [](const pipeline::StageTimes& t) {
-         return std::max(
-             0.0, t.supervoxels_ms - t.voxelize_ms - t.normals_ms - t.seeding_ms - t.growth_ms);
-       }},
-      {"features", [](const pipeline::StageTimes& t) { return t.features_ms; }},
-      {"linkage", [](const pipeline::StageTimes& t) { return t.linkage_ms; }},
-      {"planes", [](const pipeline::StageTimes& t) { return t.planes_ms; }},
-      {"expansion", [](const pipeline::StageTimes& t) { return t.expansion_ms; }},
-      {"refine+objects", [](const pipeline::StageTimes& t) { return t.objects_ms; }},
-      {"total", [](const pipeline::StageTimes& t) { return t.total_ms; }},
-  };
+  static const std::vector<StageDef> kStages = [] {
+    std::vector<StageDef> s;
+    for (size_t i = 0; i < pipeline::kNumStages; ++i) {
+      s.push_back({std::string(pipeline::StageTable()[i].name),
+                   [](const pipeline::StageTimes& t, size_t k) { return t.ms[k]; }, i});
+    }
+    s.push_back({"total", [](const pipeline::StageTimes& t, size_t) { return t.total_ms; }, 0});
+    return s;
+  }();
   return kStages;
 }
 
@@ -160,12 +151,12 @@ std::string LoadAverage() {
 // ---------------------------------------------------------------------------------------
 // Runs.
 
-// How segmenters and thread pools are arranged.
+// How the frames are run: pipeline::FrameRunner with `lanes` Segmenters sharing a pool of
+// `pool_threads` (1 = no pool), as the daemon and clutterseg-segment run them.
 struct Config {
   std::string name;
-  int lanes{1};             // Segmenter instances, each on its own thread (1 = caller)
-  bool shared_pool{false};  // all lanes use one pool of `pool_threads`
-  int pool_threads{1};      // threads per pool (1 = no pool: the lane's thread does all)
+  int lanes{1};
+  int pool_threads{1};
 };
 
 struct Sample {
@@ -196,99 +187,60 @@ ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& 
   const size_t n = frames.size();
   ResetPeakRss();
   const double rss_before = ReadProcStatus().vm_rss_mb;
-  std::vector<std::unique_ptr<core::ThreadPool>> pools;
-  std::vector<core::ThreadPool*> lane_pool(static_cast<size_t>(config.lanes), nullptr);
-  if (config.pool_threads > 1) {
-    if (config.shared_pool) {
-      pools.push_back(std::make_unique<core::ThreadPool>(config.pool_threads));
-      for (auto& p : lane_pool) p = pools[0].get();
-    } else {
-      for (auto& p : lane_pool) {
-        pools.push_back(std::make_unique<core::ThreadPool>(config.pool_threads));
-        p = pools.back().get();
-      }
-    }
-  }
-  std::vector<std::unique_ptr<pipeline::Segmenter>> segmenters;
-  std::vector<pipeline::SegmentationResult> results(static_cast<size_t>(config.lanes));
-  for (int l = 0; l < config.lanes; ++l) {
-    segmenters.push_back(std::make_unique<pipeline::Segmenter>(params, lane_pool[l]));
-  }
-
   const size_t total = n * static_cast<size_t>(repeat);
   std::vector<Sample> samples(total);
-
-  // Timed jobs are frame indices 0..count-1 (modulo n), taken by whichever lane is free, as
-  // the daemon's dispatcher does.
-  auto run_jobs = [&](size_t count, bool record, double* wall_ms, double* cpu_ms,
-                      AllocCounts* allocs) {
-    std::atomic<size_t> next{0};
-    std::vector<std::exception_ptr> errors(static_cast<size_t>(config.lanes));
-    auto lane_loop = [&](int l) {
-      try {
-        // Warm-up: every lane processes every frame, so that each Segmenter's buffers have
-        // grown to the largest frame before the timed loop.
-        size_t own = 0;
-        for (;;) {
-          const size_t j = record ? next.fetch_add(1) : own++;
-          if (j >= count) return;
-          const size_t f = j % n;
-          const Clock::time_point t0 = Clock::now();
-          segmenters[l]->Process(frames.clouds[f], frames.intrinsics, &results[l]);
-          const Clock::time_point t1 = Clock::now();
-          if (record) {
-            samples[j].times = results[l].times;
-            samples[j].wall_ms = MsBetween(t0, t1);
-            samples[j].supervoxels = results[l].num_supervoxels;
-            samples[j].objects = static_cast<uint32_t>(results[l].objects.size());
-          }
-        }
-      } catch (...) {
-        errors[l] = std::current_exception();
-      }
-    };
-    const AllocCounts a0 = CurrentAllocCounts();
-    double cpu0 = 0;
-    Clock::time_point t0;
-    if (config.lanes == 1) {
-      cpu0 = ProcessCpuMs();
-      t0 = Clock::now();
-      lane_loop(0);
-    } else {
-      std::latch start(1);
-      std::vector<std::thread> threads;
-      for (int l = 0; l < config.lanes; ++l) {
-        threads.emplace_back([&, l] {
-          start.wait();
-          lane_loop(l);
-        });
-      }
-      // Thread creation is outside the measured window.
-      *allocs = CurrentAllocCounts();
-      cpu0 = ProcessCpuMs();
-      t0 = Clock::now();
-      start.count_down();
-      for (auto& t : threads) t.join();
-    }
+  bool record = false;
+  // Jobs are frame indices modulo n (timed jobs 0..total-1), taken by whichever lane is free.
+  auto work = [&](const pipeline::FrameRunner::Lane& lane, uint64_t job) {
+    const size_t f = job % n;
+    const Clock::time_point t0 = Clock::now();
+    lane.segmenter->Process(frames.clouds[f], frames.intrinsics, lane.result);
     const Clock::time_point t1 = Clock::now();
-    const double cpu1 = ProcessCpuMs();
-    const AllocCounts a1 = CurrentAllocCounts();
-    *wall_ms = MsBetween(t0, t1);
-    *cpu_ms = cpu1 - cpu0;
-    *allocs = a1 - (config.lanes == 1 ? a0 : *allocs);
-    for (const auto& e : errors) {
-      if (e) std::rethrow_exception(e);
+    if (record) {
+      Sample& s = samples[job];
+      s.times = lane.result->times;
+      s.wall_ms = MsBetween(t0, t1);
+      s.supervoxels = lane.result->num_supervoxels;
+      s.objects = static_cast<uint32_t>(lane.result->objects.size());
     }
   };
+  std::string error;
+  auto done = [&](const pipeline::FrameRunner::Lane&, uint64_t, const std::string* e) {
+    if (e != nullptr && error.empty()) error = *e;
+  };
+  pipeline::FrameRunnerParams rp;
+  rp.pipeline_depth = config.lanes;
+  rp.threads = config.pool_threads;
+  rp.policy = pipeline::DispatchPolicy::kThroughput;
+  pipeline::FrameRunner runner(params, rp, work, done);
+  // Warm-up: every lane's Segmenter processes every frame, so that its buffers have grown to
+  // the largest frame before the timed loop.
+  for (int w = 0; w < warmup; ++w) {
+    runner.ForEachLane([&](const pipeline::FrameRunner::Lane& lane) {
+      const core::ThreadPool::ActiveCaller active(runner.pool());
+      for (size_t f = 0; f < n; ++f) {
+        lane.segmenter->Process(frames.clouds[f], frames.intrinsics, lane.result);
+      }
+    });
+  }
+  TraceNextAllocations(trace_allocs);
+  record = true;
+  const AllocCounts a0 = CurrentAllocCounts();
+  const double cpu0 = ProcessCpuMs();
+  const Clock::time_point t0 = Clock::now();
+  for (size_t j = 0; j < total; ++j) runner.Submit(j);
+  runner.Drain();
+  const Clock::time_point t1 = Clock::now();
+  const double cpu1 = ProcessCpuMs();
+  const AllocCounts a1 = CurrentAllocCounts();
+  TraceNextAllocations(0);
+  if (!error.empty()) throw std::runtime_error(error);
 
   ConfigResult r;
   r.config = config;
-  double wall = 0, cpu = 0;
-  AllocCounts allocs;
-  if (warmup > 0) run_jobs(n * static_cast<size_t>(warmup), false, &wall, &cpu, &allocs);
-  TraceNextAllocations(trace_allocs);
-  run_jobs(total, true, &r.wall_ms, &r.cpu_ms, &r.allocs);
-  TraceNextAllocations(0);
+  r.wall_ms = MsBetween(t0, t1);
+  r.cpu_ms = cpu1 - cpu0;
+  r.allocs = a1 - a0;
   r.rss_before_mb = rss_before;
   r.peak_rss_mb = ReadProcStatus().vm_hwm_mb;
   r.frames = total;
@@ -300,7 +252,7 @@ ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& 
   std::vector<double> per_frame(n), reps(static_cast<size_t>(repeat));
   for (const StageDef& s : stages) {
     for (size_t f = 0; f < n; ++f) {
-      for (int k = 0; k < repeat; ++k) reps[k] = s.get(samples[k * n + f].times);
+      for (int k = 0; k < repeat; ++k) reps[k] = s.get(samples[k * n + f].times, s.index);
       per_frame[f] = Median(reps);
     }
     r.stages.push_back(Summarize(per_frame));
@@ -386,8 +338,8 @@ void PrintStageTable(const ConfigResult& r) {
   const auto& stages = Stages();
   for (size_t i = 0; i < stages.size(); ++i) {
     const Summary& s = r.stages[i];
-    std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", stages[i].name, s.mean, s.p50, s.p90,
-                s.p99, s.max);
+    std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", stages[i].name.c_str(), s.mean, s.p50,
+                s.p90, s.p99, s.max);
   }
   const Summary& l = r.latency;
   std::printf("  %-18s %9.2f %9.2f %9.2f %9.2f %9.2f\n", "end-to-end (wall)", l.mean, l.p50, l.p90,
@@ -412,23 +364,6 @@ struct Options {
   size_t trace_config{0};
   std::vector<std::string> overrides;
 };
-
-// Applies "key=value" (a key of the daemon configuration's segmenter section, e.g.
-// supervoxel.refinement_iterations=0) to `params`.
-void ApplySegmenterOverride(const std::string& assignment, pipeline::SegmenterParams* params) {
-  const size_t eq = assignment.find('=');
-  if (eq == std::string::npos) {
-    throw std::invalid_argument("--set expects KEY=VALUE, got '" + assignment + "'");
-  }
-  const std::string key = assignment.substr(0, eq);
-  for (const auto& k : config::SegmenterKeys()) {
-    if (k.path == key) {
-      k.set(assignment.substr(eq + 1), params);
-      return;
-    }
-  }
-  throw std::invalid_argument("--set: unknown segmenter key '" + key + "'");
-}
 
 int Run(int argc, char** argv) {
   Options opt;
@@ -512,7 +447,7 @@ int Run(int argc, char** argv) {
 
   pipeline::SegmenterParams params;
   for (const std::string& o : opt.overrides) {
-    ApplySegmenterOverride(o, &params);
+    config::ApplySegmenterOverride(o, &params);
     std::printf("segmenter parameter %s\n", o.c_str());
   }
   params.ValidateOrThrow();
@@ -520,15 +455,11 @@ int Run(int argc, char** argv) {
   const bool hwm_reset = ResetPeakRss();
 
   std::vector<Config> configs;
-  configs.push_back({"1 segmenter, pool " + std::to_string(threads), 1, true, threads});
-  if (threads > 1) configs.push_back({"1 segmenter, no pool", 1, true, 1});
+  configs.push_back({"1 lane, pool " + std::to_string(threads), 1, threads});
+  if (threads > 1) configs.push_back({"1 lane, no pool", 1, 1});
   if (opt.pipelined) {
-    configs.push_back({"2 segmenters, shared pool " + std::to_string(threads), 2, true, threads});
-    configs.push_back({"2 segmenters, no pools", 2, false, 1});
-    if (threads > 1) {
-      configs.push_back(
-          {"2 segmenters, own pool " + std::to_string(threads) + " each", 2, false, threads});
-    }
+    configs.push_back({"2 lanes, shared pool " + std::to_string(threads), 2, threads});
+    configs.push_back({"2 lanes, no pool", 2, 1});
   }
   std::vector<ConfigResult> results;
   for (size_t i = 0; i < configs.size(); ++i) {
@@ -637,6 +568,12 @@ int Run(int argc, char** argv) {
   for (const std::string& o : opt.overrides) w.Value(o);
   w.EndArray();
   w.Field("load_avg_start", load_start).Field("load_avg_end", load_end);
+  w.Key("stage_table").BeginArray();
+  for (const pipeline::StageInfo& info : pipeline::StageTable()) {
+    w.BeginObject().Field("name", std::string(info.name));
+    w.Field("description", std::string(info.description)).EndObject();
+  }
+  w.EndArray();
   w.Field("supervoxels_mean", results[0].supervoxels_mean);
   w.Field("objects_mean", results[0].objects_mean);
   w.Key("configs").BeginArray();
@@ -644,7 +581,7 @@ int Run(int argc, char** argv) {
     const double nf = static_cast<double>(r.frames);
     w.BeginObject();
     w.Field("name", r.config.name).Field("lanes", r.config.lanes);
-    w.Field("shared_pool", r.config.shared_pool).Field("pool_threads", r.config.pool_threads);
+    w.Field("pool_threads", r.config.pool_threads);
     w.Field("fps", r.fps).Field("cpu_ms_per_frame", r.cpu_ms_per_frame);
     w.Field("cpu_bound_fps", 1000.0 * threads / r.cpu_ms_per_frame);
     w.Field("alloc_counting_available", AllocCountingAvailable());

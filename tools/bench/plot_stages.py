@@ -13,28 +13,26 @@ import json
 import sys
 from xml.sax.saxutils import escape
 
-STAGES = [
-    ("points", "points", "#9e9e9e"),
-    ("voxelize", "voxelize + adjacency", "#1f77b4"),
-    ("normals", "voxel normals", "#aec7e8"),
-    ("seeding", "seeding", "#2ca02c"),
-    ("growth", "supervoxel growth", "#5ab55a"),
-    ("sv statistics", "supervoxel statistics", "#b5dfb5"),
-    ("features", "patch features", "#98df8a"),
-    ("linkage", "linkage", "#ff7f0e"),
-    ("planes", "plane hypotheses", "#9467bd"),
-    ("expansion", "alpha-expansion", "#c5b0d5"),
-    ("refine+objects", "refine + objects", "#8c564b"),
-]
+# Colours for the stages, in the order of the bench's "stage_table" (pipeline::StageTable()).
+PALETTE = ["#9e9e9e", "#1f77b4", "#aec7e8", "#2ca02c", "#5ab55a", "#b5dfb5", "#98df8a",
+           "#ff7f0e", "#9467bd", "#c5b0d5", "#8c564b", "#c49c94", "#e377c2", "#f7b6d2"]
 PCL_STAGES = [
     ("supervoxels_ms", "PCL supervoxels", "#d62728"),
     ("lccp_ms", "PCL LCCP", "#ff9896"),
 ]
 # Which configurations to draw, in order, and their short labels.
 CONFIGS = [
-    ("1 segmenter, no pool", "ours 1 thread"),
-    ("1 segmenter, pool", "ours pool"),
+    ("1 lane, no pool", "ours 1 thread"),
+    ("1 lane, pool", "ours pool"),
 ]
+
+
+def stage_table(summary):
+    """[(name, description, colour)] from the summary's stage table."""
+    table = summary.get("stage_table")
+    if not table:
+        raise ValueError("the JSON has no stage_table (made by an older clutterseg-bench)")
+    return [(t["name"], t["description"], PALETTE[i % len(PALETTE)]) for i, t in enumerate(table)]
 
 
 def load(path):
@@ -52,7 +50,8 @@ def bars_for(summary):
         for cfg in summary.get("configs", []):
             if cfg["name"].startswith(prefix) and cfg.get("lanes", 1) == 1:
                 stages = cfg["stages_ms"]
-                parts = [(key, stages[key]["mean"], colour) for key, _, colour in STAGES]
+                parts = [(key, stages[key]["mean"], colour)
+                         for key, _, colour in stage_table(summary)]
                 if prefix.endswith("pool"):
                     label = f"ours pool {cfg.get('pool_threads', '')}".strip()
                 bars.append((label, parts, stages["total"]["mean"], cfg.get("cpu_ms_per_frame")))
@@ -150,7 +149,7 @@ def render(datasets, title):
     # Legend.
     lx = width - 280
     ly = top
-    for _, label, colour in STAGES + PCL_STAGES:
+    for _, label, colour in stage_table(datasets[0][1]) + PCL_STAGES:
         out.append(f'<rect x="{lx}" y="{ly}" width="14" height="14" fill="{colour}"/>')
         out.append(f'<text x="{lx + 20}" y="{ly + 11}">{escape(label)}</text>')
         ly += 20

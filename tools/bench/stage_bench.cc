@@ -27,6 +27,7 @@
 #include "clutterseg/pipeline/refine.h"
 #include "clutterseg/pipeline/segmenter.h"
 #include "clutterseg/pipeline/segmenter_params.h"
+#include "clutterseg/pipeline/working_cloud.h"
 #include "clutterseg/supervoxel/supervoxelizer.h"
 #include "tools/bench/frame_set.h"
 #if CLUTTERSEG_BENCH_HAVE_DAEMON
@@ -83,18 +84,12 @@ StageInputs* GetInputs(benchmark::State& state) {
   if (threads > 1) in->pool = std::make_unique<core::ThreadPool>(static_cast<int>(threads));
   core::ThreadPool* pool = in->pool.get();
 
-  const float zmin = in->params.objects.min_depth_m;
-  const float zmax = in->params.objects.max_depth_m;
-  in->work.width = in->cloud.width;
-  in->work.height = in->cloud.height;
-  in->work.xyz = in->cloud.xyz;
-  for (core::Vec3f& p : in->work.xyz) {
-    if (!core::IsValid(p) || p.z < zmin || p.z > zmax) {
-      p = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
-    }
-  }
-  supervoxel::Supervoxelizer svz(in->params.supervoxel);
-  svz.Compute(in->work, pool, &in->sv);
+  pipeline::WorkingCloudBuilder points(in->params.points, pool);
+  pipeline::WorkingCloud work;
+  points.Compute(in->cloud, in->params.supervoxel.color_importance > 0.f, &work);
+  in->work = std::move(work.cloud);
+  supervoxel::Supervoxelizer svz(in->params.supervoxel, pool);
+  svz.Compute(in->work, &in->sv);
   graph::PatchFeatureExtractor fx(pool);
   fx.Compute(in->work, in->sv, &in->features);
   graph::Linkage linkage(in->params.linkage, pool);
@@ -115,15 +110,12 @@ void SetLabel(benchmark::State& state, const StageInputs& in) {
 void BM_Voxelize(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
-  geometry::VoxelGridParams vp;
-  vp.voxel_resolution_m = in->params.supervoxel.voxel_resolution_m;
-  vp.use_single_camera_transform = in->params.supervoxel.use_single_camera_transform;
-  vp.max_depth_m = in->params.supervoxel.max_depth_m;
-  geometry::Voxelizer voxelizer(vp);
+  const bool color = in->params.supervoxel.color_importance > 0.f;
+  geometry::Voxelizer voxelizer(in->params.supervoxel.grid, in->pool.get());
   geometry::VoxelGrid grid;
   for (auto _ : state) {
-    voxelizer.Voxelize(in->work, in->pool.get(), &grid);
-    voxelizer.ComputeAdjacency(in->pool.get(), &grid);
+    voxelizer.Voxelize(in->work, color, &grid);
+    voxelizer.ComputeAdjacency(&grid);
     benchmark::DoNotOptimize(grid.adjacency.data());
   }
   state.counters["voxels"] = static_cast<double>(grid.size());
@@ -133,16 +125,13 @@ void BM_Voxelize(benchmark::State& state) {
 void BM_Normals(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
-  geometry::VoxelGridParams vp;
-  vp.voxel_resolution_m = in->params.supervoxel.voxel_resolution_m;
-  vp.use_single_camera_transform = in->params.supervoxel.use_single_camera_transform;
-  vp.max_depth_m = in->params.supervoxel.max_depth_m;
-  geometry::Voxelizer voxelizer(vp);
+  const bool color = in->params.supervoxel.color_importance > 0.f;
+  geometry::Voxelizer voxelizer(in->params.supervoxel.grid, in->pool.get());
   geometry::VoxelGrid grid;
-  voxelizer.Voxelize(in->work, in->pool.get(), &grid);
-  voxelizer.ComputeAdjacency(in->pool.get(), &grid);
+  voxelizer.Voxelize(in->work, color, &grid);
+  voxelizer.ComputeAdjacency(&grid);
   for (auto _ : state) {
-    voxelizer.ComputeNormals(in->pool.get(), &grid);
+    voxelizer.ComputeNormals(&grid);
     benchmark::DoNotOptimize(grid.normal.data());
   }
   SetLabel(state, *in);
@@ -152,13 +141,13 @@ void BM_Normals(benchmark::State& state) {
 void BM_Supervoxels(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
-  supervoxel::Supervoxelizer svz(in->params.supervoxel);
+  supervoxel::Supervoxelizer svz(in->params.supervoxel, in->pool.get());
   supervoxel::Supervoxels sv;
   for (auto _ : state) {
-    svz.Compute(in->work, in->pool.get(), &sv);
+    svz.Compute(in->work, &sv);
     benchmark::DoNotOptimize(sv.pixel_label.data());
   }
-  const supervoxel::SupervoxelTimings& t = svz.timings();
+  const supervoxel::SupervoxelTimings& t = sv.timings;
   state.counters["voxelize_ms"] = t.voxelize_ms;
   state.counters["adjacency_ms"] = t.adjacency_ms;
   state.counters["normals_ms"] = t.normals_ms;
@@ -210,20 +199,16 @@ void BM_PlanesExpansion(benchmark::State& state) {
 void BM_RefineObjects(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
-  pipeline::Refiner refiner;
-  pipeline::ObjectExtractor extractor;
-  core::LabelImage labels;
-  std::vector<pipeline::Plane> planes;
-  std::vector<pipeline::Object> objects;
+  pipeline::Refiner refiner(in->params.objects, in->pool.get());
+  pipeline::ObjectExtractor extractor(in->pool.get());
+  pipeline::SegmentationResult result;
   for (auto _ : state) {
-    labels.Reset(in->work.width, in->work.height, 0u);
-    const uint32_t n =
-        refiner.Run(in->params.objects, in->intrinsics, in->work, in->sv, in->features, in->link,
-                    in->planes, &labels, &planes, in->pool.get());
-    extractor.Compute(in->cloud, labels, n, planes, &objects, in->pool.get());
-    benchmark::DoNotOptimize(objects.data());
+    result.labels.Reset(in->work.width, in->work.height, 0u);
+    refiner.Compute(in->intrinsics, in->work, in->sv, in->features, in->link, in->planes, &result);
+    extractor.Compute(in->cloud, &result);
+    benchmark::DoNotOptimize(result.objects.data());
   }
-  state.counters["objects"] = static_cast<double>(objects.size());
+  state.counters["objects"] = static_cast<double>(result.objects.size());
   SetLabel(state, *in);
 }
 
@@ -256,7 +241,7 @@ void BM_DepthToPointCloud(benchmark::State& state) {
   size_t valid = 0;
   for (auto _ : state) {
     valid = core::DepthToPointCloud(depth, in->intrinsics, nullptr, &cloud,
-                                    in->params.objects.min_depth_m, in->params.objects.max_depth_m,
+                                    in->params.points.min_depth_m, in->params.points.max_depth_m,
                                     in->pool.get());
     benchmark::DoNotOptimize(cloud.xyz.data());
   }
@@ -326,10 +311,10 @@ void BM_EncodeLabels(benchmark::State& state) {
   StageInputs* in = GetInputs(state);
   if (in == nullptr) return;
   const daemon::FrameInfo info = MakeInfo(*in);
-  const config::LabelCompression kinds[] = {config::LabelCompression::kNone,
-                                            config::LabelCompression::kRle,
-                                            config::LabelCompression::kZlib};
-  const config::LabelCompression compression = kinds[state.range(2)];
+  const daemon::LabelCompression kinds[] = {daemon::LabelCompression::kNone,
+                                            daemon::LabelCompression::kRle,
+                                            daemon::LabelCompression::kZlib};
+  const daemon::LabelCompression compression = kinds[state.range(2)];
   clutterseg::label_image_t msg;
   std::vector<uint8_t> buf;
   for (auto _ : state) {

@@ -1,4 +1,4 @@
-#include "clutterseg/config/daemon_config.h"
+#include "clutterseg/daemon/daemon_config.h"
 
 #include <algorithm>
 #include <cstdlib>
@@ -14,7 +14,7 @@
 
 #include "tests/testing/test_data.h"
 
-namespace clutterseg::config {
+namespace clutterseg::daemon {
 namespace {
 
 // The message of the ConfigError thrown by `fn`, or "" when nothing was thrown.
@@ -59,10 +59,10 @@ std::string NestedYaml(const std::string& path, const std::string& value) {
 TEST(DaemonConfig, EmptyDocumentGivesDefaults) {
   const DaemonConfig dut = ParseConfig("", "empty.yaml");
   EXPECT_EQ(ConfigToYaml(dut), ConfigToYaml(DaemonConfig{}));
-  EXPECT_EQ(dut.lcm_url, "udpm://239.255.76.67:7667?ttl=0");
-  EXPECT_EQ(dut.objects_channel, "CLUTTERSEG_OBJECTS");
-  EXPECT_EQ(dut.labels_channel, "CLUTTERSEG_LABELS");
-  EXPECT_EQ(dut.status_channel, "CLUTTERSEG_STATUS");
+  EXPECT_EQ(dut.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(dut.lcm.objects_channel, "CLUTTERSEG_OBJECTS");
+  EXPECT_EQ(dut.lcm.labels_channel, "CLUTTERSEG_LABELS");
+  EXPECT_EQ(dut.lcm.status_channel, "CLUTTERSEG_STATUS");
 }
 
 TEST(DaemonConfig, ShippedFileDocumentsEveryKeyWithItsDefault) {
@@ -139,15 +139,15 @@ TEST(DaemonConfig, EveryKeyIsParsedFromYaml) {
 TEST(DaemonConfig, RoundTripsThroughYaml) {
   DaemonConfig dut;
   dut.source = "/data/run 1.oni";
-  dut.speed = Speed::kMax;
-  dut.lcm_url = "file:///tmp/x.lcmlog?mode=w";
-  dut.queue_capacity = 7;
-  dut.segmenter.supervoxel.voxel_resolution_m = 0.011f;
+  dut.capture.speed = Speed::kMax;
+  dut.lcm.url = "file:///tmp/x.lcmlog?mode=w";
+  dut.capture.queue_capacity = 7;
+  dut.segmenter.supervoxel.grid.voxel_resolution_m = 0.011f;
   dut.segmenter.planes.max_planes = 3;
   const DaemonConfig back = ParseConfig(ConfigToYaml(dut), "roundtrip.yaml");
   EXPECT_EQ(ConfigToYaml(back), ConfigToYaml(dut));
   EXPECT_EQ(back.source, "/data/run 1.oni");
-  EXPECT_FLOAT_EQ(back.segmenter.supervoxel.voxel_resolution_m, 0.011f);
+  EXPECT_FLOAT_EQ(back.segmenter.supervoxel.grid.voxel_resolution_m, 0.011f);
 }
 
 TEST(DaemonConfig, UnknownKeysAreNamedWithFileAndLine) {
@@ -240,8 +240,8 @@ TEST(DaemonConfig, LoadsAFile) {
                          "segmenter:\n  planes:\n    max_planes: 2\n";
   const DaemonConfig dut = LoadConfig(path.string());
   EXPECT_EQ(dut.source, "/data/a.oni");
-  EXPECT_EQ(dut.speed, Speed::kMax);
-  EXPECT_EQ(dut.lcm_url, "memq://");
+  EXPECT_EQ(dut.capture.speed, Speed::kMax);
+  EXPECT_EQ(dut.lcm.url, "memq://");
   EXPECT_EQ(dut.segmenter.planes.max_planes, 2);
 
   std::ofstream(path) << "processing:\n  queue_capacity: -3\n";
@@ -256,9 +256,9 @@ TEST(DaemonConfig, CommandLineOverrides) {
   ApplyOverride("processing.threads=3", &dut);
   ApplyOverride("segmenter.linkage.use_type_filter=false", &dut);
   ApplyOverride("lcm.url=file:///tmp/a.lcmlog?mode=w", &dut);  // '=' inside the value
-  EXPECT_EQ(dut.threads, 3);
+  EXPECT_EQ(dut.processing.threads, 3);
   EXPECT_FALSE(dut.segmenter.linkage.use_type_filter);
-  EXPECT_EQ(dut.lcm_url, "file:///tmp/a.lcmlog?mode=w");
+  EXPECT_EQ(dut.lcm.url, "file:///tmp/a.lcmlog?mode=w");
 
   std::string e = ErrorOf([&] { ApplyOverride("processing.thread=3", &dut); });
   EXPECT_NE(e.find("command line"), std::string::npos) << e;
@@ -269,43 +269,5 @@ TEST(DaemonConfig, CommandLineOverrides) {
   EXPECT_NE(e.find("key=value"), std::string::npos) << e;
 }
 
-// The key table is written by hand; this catches a parameter added to a params struct
-// without its line in src/config/segmenter_keys.cc.
-TEST(SegmenterKeys, CoverEveryFieldOfTheParamsStructs) {
-  struct Source {
-    const char* file;
-    const char* struct_name;
-    const char* section;
-  };
-  const Source sources[] = {
-      {"src/supervoxel/supervoxel_params.h", "SupervoxelParams", "supervoxel"},
-      {"src/graph/linkage_params.h", "LinkageParams", "linkage"},
-      {"src/optimize/plane_params.h", "PlaneParams", "planes"},
-      {"src/pipeline/segmenter_params.h", "ObjectParams", "objects"},
-  };
-  const std::vector<std::string> all = ConfigKeys();
-  const std::set<std::string> keys(all.begin(), all.end());
-  const std::regex field(R"(^\s*(bool|int|float|double|int32_t|int64_t|uint32_t)\s+(\w+)\s*\{)");
-  for (const Source& src : sources) {
-    std::ifstream in(std::string(CLUTTERSEG_SOURCE_DIR) + "/" + src.file);
-    ASSERT_TRUE(in) << src.file;
-    bool inside = false;
-    int fields = 0;
-    for (std::string line; std::getline(in, line);) {
-      if (line.find(std::string("struct ") + src.struct_name + " {") != std::string::npos) {
-        inside = true;
-      } else if (inside && line.rfind("};", 0) == 0) {
-        break;
-      } else if (std::smatch m; inside && std::regex_search(line, m, field)) {
-        ++fields;
-        const std::string key = std::string("segmenter.") + src.section + "." + m[2].str();
-        EXPECT_TRUE(keys.count(key))
-            << key << " (" << src.file << ") has no line in src/config/segmenter_keys.cc";
-      }
-    }
-    EXPECT_GT(fields, 0) << "no field found in " << src.struct_name;
-  }
-}
-
 }  // namespace
-}  // namespace clutterseg::config
+}  // namespace clutterseg::daemon

@@ -1,0 +1,203 @@
+#include "clutterseg/daemon/capture.h"
+
+#include <pthread.h>
+
+#include <algorithm>
+
+#include "clutterseg/core/param_check.h"
+#include "clutterseg/daemon/log.h"
+
+namespace clutterseg::daemon {
+
+using Clock = std::chrono::steady_clock;
+
+const char* ToString(Speed speed) { return speed == Speed::kMax ? "max" : "realtime"; }
+
+const char* ToString(DeviceState state) {
+  switch (state) {
+    case DeviceState::kStarting:
+      return "starting";
+    case DeviceState::kStreaming:
+      return "streaming";
+    case DeviceState::kReconnecting:
+      return "reconnecting";
+    case DeviceState::kEndOfStream:
+      return "end_of_stream";
+    case DeviceState::kError:
+      return "error";
+  }
+  return "error";
+}
+
+void CaptureParams::ValidateOrThrow() const {
+  const core::ParamCheck check("");
+  check.InRange("processing.queue_capacity", queue_capacity, 1, 1024);
+  check.Require(reconnect_backoff_min_s > 0.0 && reconnect_backoff_min_s <= 3600.0,
+                "reconnect.backoff_min_s", reconnect_backoff_min_s, "(0, 3600] s");
+  check.Require(
+      reconnect_backoff_max_s >= reconnect_backoff_min_s && reconnect_backoff_max_s <= 3600.0,
+      "reconnect.backoff_max_s", reconnect_backoff_max_s,
+      ">= reconnect.backoff_min_s and <= 3600 s");
+  check.NonEmpty("camera_name", camera_name, "a name");
+  check.AtLeast("processing.max_frames", max_frames, int64_t{0}, "(0 = no limit)");
+}
+
+Capture::Capture(const CaptureParams& params, core::FrameSource* source, core::FrameQueue* queue,
+                 std::function<void(const std::string&)> on_error)
+    : params_((params.ValidateOrThrow(), params)),
+      source_(source),
+      queue_(queue),
+      on_error_(std::move(on_error)) {}
+
+Capture::~Capture() {
+  RequestStop();
+  Join();
+}
+
+void Capture::Start() {
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void Capture::RequestStop() {
+  if (stop_.exchange(true)) return;
+  source_->RequestStop();
+  { std::lock_guard<std::mutex> lock(stop_mutex_); }
+  stop_cv_.notify_all();
+}
+
+void Capture::Join() {
+  if (thread_.joinable()) thread_.join();
+}
+
+std::string Capture::last_problem() const {
+  std::lock_guard<std::mutex> lock(problem_mutex_);
+  return last_problem_;
+}
+
+void Capture::NoteProblem(const std::string& message) {
+  std::lock_guard<std::mutex> lock(problem_mutex_);
+  last_problem_ = message;
+}
+
+bool Capture::SleepUnlessStopped(std::chrono::microseconds d) {
+  std::unique_lock<std::mutex> lock(stop_mutex_);
+  return stop_cv_.wait_for(lock, d, [this] { return stop_.load(); });
+}
+
+void Capture::Loop() {
+  pthread_setname_np(pthread_self(), "cs-capture");
+  try {
+    const bool live = source_->IsLive();
+    const bool lockstep = !live && params_.speed == Speed::kMax;
+    const bool pace = !live && params_.speed == Speed::kRealtime;
+    int64_t pace_utime0 = 0;
+    Clock::time_point pace_t0;
+    bool pace_base = false;
+    SetState(DeviceState::kStreaming);
+    bool running = true;
+    while (running && !stop_.load()) {
+      if (lockstep && params_.max_frames > 0 &&
+          captured_.load() >= static_cast<uint64_t>(params_.max_frames)) {
+        break;
+      }
+      if (lockstep && !queue_->wait_not_full_for(std::chrono::milliseconds(100))) continue;
+      core::RgbdFrame* frame = queue_->acquire();
+      frame->receive_utime = 0;
+      switch (source_->Read(100, frame)) {
+        case core::ReadStatus::kOk: {
+          if (frame->receive_utime == 0) frame->receive_utime = core::SteadyClockMicros();
+          frame->camera_name = params_.camera_name;
+          if (pace) {
+            // Replay at the recorded rate: frame time relative to the first frame.
+            const auto now = Clock::now();
+            if (!pace_base || frame->utime < pace_utime0) {
+              pace_utime0 = frame->utime;
+              pace_t0 = now;
+              pace_base = true;
+            }
+            const auto due = pace_t0 + std::chrono::microseconds(frame->utime - pace_utime0);
+            if (due - now > std::chrono::seconds(2)) {  // a jump in the recording's clock
+              pace_utime0 = frame->utime;
+              pace_t0 = now;
+            } else if (due > now &&
+                       SleepUnlessStopped(
+                           std::chrono::duration_cast<std::chrono::microseconds>(due - now))) {
+              break;
+            }
+          }
+          queue_->push();
+          captured_.fetch_add(1);
+          if (device_state() != DeviceState::kStreaming) SetState(DeviceState::kStreaming);
+          break;
+        }
+        case core::ReadStatus::kTimeout:
+          break;
+        case core::ReadStatus::kEndOfStream:
+          if (stop_.load()) {
+            running = false;
+          } else if (params_.loop) {
+            source_->Close();
+            source_->Open();
+            pace_base = false;
+          } else {
+            Log(LogLevel::kInfo, "end of stream: " + source_->Describe());
+            SetState(DeviceState::kEndOfStream);
+            running = false;
+          }
+          break;
+        case core::ReadStatus::kDisconnected:
+          Reconnect();
+          break;
+        case core::ReadStatus::kError:
+          SetState(DeviceState::kError);
+          on_error_("source error: " + source_->last_error());
+          running = false;
+          break;
+      }
+    }
+  } catch (const std::exception& e) {
+    SetState(DeviceState::kError);
+    on_error_(std::string("capture failed: ") + e.what());
+  } catch (...) {
+    SetState(DeviceState::kError);
+    on_error_("capture failed: unknown exception");
+  }
+  queue_->close();
+  try {
+    source_->Close();
+  } catch (const std::exception& e) {
+    NoteProblem(std::string("closing the source: ") + e.what());
+  } catch (...) {
+  }
+}
+
+void Capture::Reconnect() {
+  const std::string why = "device lost: " + source_->last_error();
+  Log(LogLevel::kWarn, why + "; reconnecting");
+  NoteProblem(why);
+  SetState(DeviceState::kReconnecting);
+  try {
+    source_->Close();
+  } catch (const std::exception& e) {
+    NoteProblem(std::string("closing the lost device: ") + e.what());
+  }
+  auto backoff =
+      std::chrono::microseconds(static_cast<int64_t>(params_.reconnect_backoff_min_s * 1e6));
+  const auto max_backoff =
+      std::chrono::microseconds(static_cast<int64_t>(params_.reconnect_backoff_max_s * 1e6));
+  while (!SleepUnlessStopped(backoff)) {
+    reconnects_.fetch_add(1);
+    try {
+      source_->Open();
+      SetState(DeviceState::kStreaming);
+      Log(LogLevel::kInfo, "reconnected: " + source_->Describe());
+      return;
+    } catch (const std::exception& e) {
+      NoteProblem(std::string("reconnect failed: ") + e.what());
+      Log(LogLevel::kWarn, std::string("reconnect failed: ") + e.what());
+    }
+    backoff = std::min(backoff * 2, max_backoff);
+  }
+}
+
+}  // namespace clutterseg::daemon

@@ -1,0 +1,154 @@
+#include "clutterseg/daemon/daemon_config.h"
+
+#include <stdexcept>
+#include <utility>
+#include <vector>
+
+#include "clutterseg/config/segmenter_keys.h"
+#include "clutterseg/core/param_check.h"
+
+// Codecs of the daemon's enum keys: each written as one of its names.
+namespace clutterseg::config {
+namespace {
+
+template <typename E>
+E ParseName(const std::string& s, const std::vector<std::pair<const char*, E>>& names) {
+  std::string choices;
+  for (const auto& [name, value] : names) {
+    if (s == name) return value;
+    if (!choices.empty()) choices.push_back('|');
+    choices.append(name);
+  }
+  throw std::invalid_argument("expected one of " + choices);
+}
+
+}  // namespace
+
+template <>
+struct Codec<daemon::Speed> {
+  static daemon::Speed Parse(const std::string& s) {
+    return ParseName<daemon::Speed>(
+        s, {{"realtime", daemon::Speed::kRealtime}, {"max", daemon::Speed::kMax}});
+  }
+  static std::string Format(daemon::Speed v) { return daemon::ToString(v); }
+};
+template <>
+struct Codec<daemon::LabelCompression> {
+  static daemon::LabelCompression Parse(const std::string& s) {
+    using daemon::LabelCompression;
+    return ParseName<LabelCompression>(s, {{"none", LabelCompression::kNone},
+                                           {"rle", LabelCompression::kRle},
+                                           {"zlib", LabelCompression::kZlib}});
+  }
+  static std::string Format(daemon::LabelCompression v) { return daemon::ToString(v); }
+};
+template <>
+struct Codec<daemon::LogLevel> {
+  static daemon::LogLevel Parse(const std::string& s) {
+    using daemon::LogLevel;
+    return ParseName<LogLevel>(s, {{"debug", LogLevel::kDebug},
+                                   {"info", LogLevel::kInfo},
+                                   {"warn", LogLevel::kWarn},
+                                   {"error", LogLevel::kError}});
+  }
+  static std::string Format(daemon::LogLevel v) { return daemon::ToString(v); }
+};
+
+}  // namespace clutterseg::config
+
+namespace clutterseg::daemon {
+namespace {
+
+using config::Key;
+using config::MakeKey;
+
+// The daemon's keys, in documentation order (config/clutterseg.yaml follows it).
+const config::KeyTable<DaemonConfig>& DaemonKeys() {
+  static const config::KeyTable<DaemonConfig> kKeys = [] {
+    using C = DaemonConfig;
+    using config::MakeAccessKey;
+    std::vector<Key<C>> k = {
+        MakeKey("source", &C::source),
+        MakeAccessKey<C>(
+            "speed", [](auto& c) -> auto& { return c.capture.speed; }),
+        MakeKey("loop", &C::capture, &CaptureParams::loop),
+        MakeKey("camera_name", &C::capture, &CaptureParams::camera_name),
+        MakeKey("lcm.url", &C::lcm, &LcmPublisherParams::url),
+        MakeKey("lcm.objects_channel", &C::lcm, &LcmPublisherParams::objects_channel),
+        MakeKey("lcm.labels_channel", &C::lcm, &LcmPublisherParams::labels_channel),
+        MakeKey("lcm.status_channel", &C::lcm, &LcmPublisherParams::status_channel),
+        MakeKey("lcm.publish_labels", &C::lcm, &LcmPublisherParams::publish_labels),
+        MakeAccessKey<C>(
+            "lcm.label_compression", [](auto& c) -> auto& { return c.lcm.label_compression; }),
+        MakeKey("lcm.queue_capacity", &C::lcm, &LcmPublisherParams::queue_capacity),
+        MakeKey("processing.queue_capacity", &C::capture, &CaptureParams::queue_capacity),
+        MakeKey("processing.threads", &C::processing, &pipeline::FrameRunnerParams::threads),
+        MakeKey("processing.pipeline_depth", &C::processing,
+                &pipeline::FrameRunnerParams::pipeline_depth),
+        MakeKey("processing.max_frames", &C::capture, &CaptureParams::max_frames),
+        MakeKey("status.period_s", &C::status, &StatusReporterParams::period_s),
+        MakeKey("reconnect.backoff_min_s", &C::capture, &CaptureParams::reconnect_backoff_min_s),
+        MakeKey("reconnect.backoff_max_s", &C::capture, &CaptureParams::reconnect_backoff_max_s),
+        MakeAccessKey<C>(
+            "log.level", [](auto& c) -> auto& { return c.log_level; }),
+        MakeKey("output.png_dir", &C::overlay, &OverlayWriterParams::png_dir),
+        MakeKey("output.queue_capacity", &C::overlay, &OverlayWriterParams::queue_capacity),
+    };
+    config::AppendNested("segmenter", &C::segmenter, config::SegmenterKeys(), &k);
+    return config::KeyTable<DaemonConfig>(std::move(k));
+  }();
+  return kKeys;
+}
+
+// Validates, naming `origin` (the file or "command line") in the message.
+void ValidateOrThrowConfig(const DaemonConfig& config, const std::string& origin) {
+  try {
+    config.ValidateOrThrow();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(origin + ": " + e.what());
+  }
+}
+
+}  // namespace
+
+void DaemonConfig::ValidateOrThrow() const {
+  core::ParamCheck("").NonEmpty("source", source, "device, device:URI, FILE.oni, DIR or synthetic");
+  capture.ValidateOrThrow();
+  processing.ValidateOrThrow();
+  lcm.ValidateOrThrow();
+  status.ValidateOrThrow();
+  overlay.ValidateOrThrow();
+  segmenter.ValidateOrThrow();
+}
+
+DaemonConfig ParseConfig(const std::string& yaml_text, const std::string& origin) {
+  DaemonConfig config;
+  DaemonKeys().ParseYaml(yaml_text, origin, &config);
+  ValidateOrThrowConfig(config, origin);
+  return config;
+}
+
+DaemonConfig LoadConfig(const std::string& path) {
+  DaemonConfig config;
+  DaemonKeys().LoadYaml(path, &config);
+  ValidateOrThrowConfig(config, path);
+  return config;
+}
+
+void SetKey(const std::string& key, const std::string& value, DaemonConfig* config) {
+  DaemonKeys().Set(key, value, "command line", config);
+}
+
+void ApplyOverride(const std::string& assignment, DaemonConfig* config) {
+  DaemonKeys().ApplyOverride(assignment, config);
+}
+
+std::string GetKey(const std::string& key, const DaemonConfig& config) {
+  return DaemonKeys().Get(key, config);
+}
+
+std::vector<std::string> ConfigKeys() { return DaemonKeys().paths(); }
+
+std::string ConfigToYaml(const DaemonConfig& config) { return DaemonKeys().ToYaml(config); }
+
+}  // namespace clutterseg::daemon

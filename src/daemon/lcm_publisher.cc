@@ -1,0 +1,102 @@
+#include "clutterseg/daemon/lcm_publisher.h"
+
+#include <pthread.h>
+
+#include <chrono>
+
+#include "clutterseg/core/frame.h"
+#include "clutterseg/core/param_check.h"
+#include "clutterseg/daemon/log.h"
+
+namespace clutterseg::daemon {
+
+void LcmPublisherParams::ValidateOrThrow() const {
+  const core::ParamCheck check("lcm");
+  check.NonEmpty("url", url, "an LCM URL such as memq:// or udpm://...");
+  check.NonEmpty("objects_channel", objects_channel, "a channel name");
+  check.NonEmpty("labels_channel", labels_channel, "a channel name");
+  check.NonEmpty("status_channel", status_channel, "a channel name");
+  check.InRange("queue_capacity", queue_capacity, 1, 1024);
+}
+
+LcmPublisher::LcmPublisher(const LcmPublisherParams& params, LcmBus* bus, OnPublished on_published)
+    : params_((params.ValidateOrThrow(), params)),
+      bus_(bus),
+      on_published_(std::move(on_published)),
+      queue_(static_cast<size_t>(params.queue_capacity)) {}
+
+LcmPublisher::~LcmPublisher() { Finish(); }
+
+void LcmPublisher::Start() {
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void LcmPublisher::Offer(FrameMessages* frame) {
+  if (!queue_.Push(frame)) {  // after Finish: count it as handled so Flush does not wait
+    std::lock_guard<std::mutex> lock(flush_mutex_);
+    ++handled_;
+  }
+}
+
+void LcmPublisher::OfferStatus(const clutterseg::status_t& status) {
+  std::lock_guard<std::mutex> lock(status_mutex_);
+  pending_status_ = status;
+  status_pending_ = true;
+}
+
+void LcmPublisher::Flush() {
+  std::unique_lock<std::mutex> lock(flush_mutex_);
+  flush_cv_.wait(lock, [&] { return handled_ + queue_.dropped() >= queue_.pushed(); });
+}
+
+void LcmPublisher::Finish() {
+  queue_.Close();
+  if (thread_.joinable()) thread_.join();
+}
+
+void LcmPublisher::PublishPendingStatus() {
+  clutterseg::status_t status;
+  {
+    std::lock_guard<std::mutex> lock(status_mutex_);
+    if (!status_pending_) return;
+    std::swap(status, pending_status_);
+    status_pending_ = false;
+  }
+  bus_->PublishMessage(params_.status_channel, status);
+}
+
+void LcmPublisher::Loop() {
+  pthread_setname_np(pthread_self(), "cs-publish");
+  FrameMessages frame;
+  for (;;) {
+    const bool got = queue_.Pop(&frame, std::chrono::milliseconds(20));
+    if (got) {
+      try {
+        const int64_t now_us = core::SteadyClockMicros();
+        frame.objects.capture_to_publish_ms =
+            static_cast<float>(static_cast<double>(now_us - frame.receive_utime) * 1e-3);
+        const bool ok = bus_->PublishMessage(params_.objects_channel, frame.objects);
+        if (frame.has_labels) bus_->PublishMessage(params_.labels_channel, frame.labels);
+        (ok ? frames_published_ : frames_failed_).fetch_add(1);
+        if (on_published_) on_published_(frame, ok);
+      } catch (const std::exception& e) {
+        frames_failed_.fetch_add(1);
+        Log(LogLevel::kError, std::string("publishing failed: ") + e.what());
+      }
+      {
+        std::lock_guard<std::mutex> lock(flush_mutex_);
+        ++handled_;
+      }
+      flush_cv_.notify_all();
+    }
+    try {
+      PublishPendingStatus();
+    } catch (const std::exception& e) {
+      Log(LogLevel::kError, std::string("publishing the status failed: ") + e.what());
+    }
+    if (!got && queue_.drained()) break;
+  }
+  flush_cv_.notify_all();
+}
+
+}  // namespace clutterseg::daemon

@@ -1,0 +1,82 @@
+#include "clutterseg/daemon/overlay_writer.h"
+
+#include <pthread.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <system_error>
+
+#include "clutterseg/core/param_check.h"
+#include "clutterseg/daemon/log.h"
+#include "clutterseg/io/png_io.h"
+#include "clutterseg/pipeline/overlay.h"
+
+namespace clutterseg::daemon {
+
+void OverlayWriterParams::ValidateOrThrow() const {
+  core::ParamCheck("output").InRange("queue_capacity", queue_capacity, 1, 1024);
+}
+
+OverlayWriter::OverlayWriter(const OverlayWriterParams& params)
+    : params_((params.ValidateOrThrow(), params)),
+      queue_(static_cast<size_t>(params.queue_capacity)) {}
+
+OverlayWriter::~OverlayWriter() { Finish(); }
+
+void OverlayWriter::Start() {
+  std::error_code ec;
+  std::filesystem::create_directories(params_.png_dir, ec);
+  if (ec || !std::filesystem::is_directory(params_.png_dir)) {
+    throw std::runtime_error("output.png_dir '" + params_.png_dir +
+                             "': cannot create the directory" +
+                             (ec ? ": " + ec.message() : std::string()));
+  }
+  thread_ = std::thread([this] { Loop(); });
+}
+
+void OverlayWriter::Offer(OverlayFrame* frame) { queue_.Push(frame); }
+
+void OverlayWriter::Finish() {
+  queue_.Close();
+  if (thread_.joinable()) thread_.join();
+}
+
+std::string OverlayWriter::last_error() const {
+  std::lock_guard<std::mutex> lock(error_mutex_);
+  return last_error_;
+}
+
+void OverlayWriter::Loop() {
+  pthread_setname_np(pthread_self(), "cs-overlay");
+  OverlayFrame frame;
+  core::ColorImage image;
+  for (;;) {
+    if (!queue_.Pop(&frame, std::chrono::milliseconds(100))) {
+      if (queue_.drained()) return;
+      continue;
+    }
+    char name[64];
+    std::snprintf(name, sizeof(name), "/frame_%06llu.png",
+                  static_cast<unsigned long long>(frame.sequence));
+    const std::string path = params_.png_dir + name;
+    try {
+      pipeline::RenderOverlay(frame.labels, frame.base.empty() ? nullptr : &frame.base, &image);
+      io::WriteColorPng(path, image);
+      written_.fetch_add(1);
+    } catch (const std::exception& e) {
+      const uint64_t n = failures_.fetch_add(1) + 1;
+      {
+        std::lock_guard<std::mutex> lock(error_mutex_);
+        last_error_ = e.what();
+      }
+      // The first failure and then one in a hundred: a full disk fails every frame.
+      if (n == 1 || n % 100 == 0) {
+        Log(LogLevel::kWarn,
+            "overlay PNG not written (" + std::to_string(n) + " so far): " + e.what());
+      }
+    }
+  }
+}
+
+}  // namespace clutterseg::daemon

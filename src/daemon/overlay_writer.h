@@ -1,0 +1,73 @@
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "clutterseg/core/types.h"
+#include "clutterseg/daemon/sink_queue.h"
+
+namespace clutterseg::daemon {
+
+/// Overlay PNG output. YAML section `output`.
+struct OverlayWriterParams {
+  std::string png_dir;    ///< when non-empty, write a label overlay PNG per frame here
+  int queue_capacity{4};  ///< frames waiting for the disk before the oldest is dropped
+
+  bool enabled() const { return !png_dir.empty(); }
+  /// @throws std::invalid_argument naming the key (`output.<field>`) and value.
+  void ValidateOrThrow() const;
+};
+
+/// One frame for the overlay writer: its labels and the image to draw them on (the frame's
+/// colour image as it is, or its depth shaded grey).
+struct OverlayFrame {
+  uint64_t sequence{0};
+  core::LabelImage labels;
+  core::ColorImage base;
+};
+
+/// The overlay sink: renders each frame's labels over its image and writes
+/// `<png_dir>/frame_<sequence, 6 digits>.png` on its own thread, behind a bounded
+/// drop-oldest queue, so a slow or full disk costs overlays (counted), never segmentation or
+/// publishing. A failed write is counted and logged, and the writer goes on.
+///
+/// Thread-safety: Start and Finish from the owning thread; Offer from one producer thread;
+/// the counters from any thread.
+class OverlayWriter {
+ public:
+  OverlayWriter(const OverlayWriter&) = delete;
+  OverlayWriter& operator=(const OverlayWriter&) = delete;
+
+  /// @throws std::invalid_argument for bad params.
+  explicit OverlayWriter(const OverlayWriterParams& params);
+  ~OverlayWriter();
+
+  /// Creates the directory and starts the thread. @throws std::runtime_error naming the
+  /// directory when it cannot be created.
+  void Start();
+  /// Queues a frame (swapped in; `*frame` gets reusable buffers back). Never blocks.
+  void Offer(OverlayFrame* frame);
+  /// Writes what waits, then stops the thread.
+  void Finish();
+
+  uint64_t written() const { return written_.load(); }
+  uint64_t failures() const { return failures_.load(); }
+  uint64_t dropped() const { return queue_.dropped(); }
+  std::string last_error() const;
+
+ private:
+  void Loop();
+
+  const OverlayWriterParams params_;
+  SinkQueue<OverlayFrame> queue_;
+  std::thread thread_;
+  std::atomic<uint64_t> written_{0};
+  std::atomic<uint64_t> failures_{0};
+  mutable std::mutex error_mutex_;
+  std::string last_error_;
+};
+
+}  // namespace clutterseg::daemon

@@ -1,0 +1,106 @@
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <cstdint>
+#include <mutex>
+#include <utility>
+#include <vector>
+
+namespace clutterseg::daemon {
+
+/// The bounded queue in front of a sink that can block (a network peer, a disk): Push never
+/// waits; when `capacity` items are already waiting the oldest is dropped and counted, so a
+/// stalled sink costs frames, never the producer's time. Items move by swap: Push hands the
+/// caller back the buffers of a spent slot and Pop those of the consumer's previous item, so
+/// after the first rounds nothing is allocated.
+///
+/// Thread-safety: Push from one producer thread, Pop from one consumer thread, Close and the
+/// counters from any thread.
+template <typename T>
+class SinkQueue {
+ public:
+  SinkQueue(const SinkQueue&) = delete;
+  SinkQueue& operator=(const SinkQueue&) = delete;
+
+  explicit SinkQueue(size_t capacity) : slots_(capacity > 0 ? capacity : 1) {}
+
+  /// Swaps `*item` into the queue (dropping the oldest waiting item first when full); `*item`
+  /// is left with reusable buffers. Returns false (nothing queued) after Close().
+  bool Push(T* item) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (closed_) return false;
+      if (count_ == slots_.size()) {
+        head_ = (head_ + 1) % slots_.size();
+        --count_;
+        ++dropped_;
+      }
+      using std::swap;
+      swap(slots_[(head_ + count_) % slots_.size()], *item);
+      ++count_;
+      ++pushed_;
+    }
+    cv_.notify_one();
+    return true;
+  }
+
+  /// Waits up to `timeout` for the oldest item and swaps it into `*out`. Returns false on
+  /// timeout, or once the queue is closed and empty.
+  bool Pop(T* out, std::chrono::milliseconds timeout) {
+    std::unique_lock<std::mutex> lock(mutex_);
+    if (!cv_.wait_for(lock, timeout, [&] { return count_ > 0 || closed_; })) return false;
+    if (count_ == 0) return false;
+    using std::swap;
+    swap(*out, slots_[head_]);
+    head_ = (head_ + 1) % slots_.size();
+    --count_;
+    return true;
+  }
+
+  /// No further Push; Pop returns the items still waiting, then false.
+  void Close() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closed_ = true;
+    }
+    cv_.notify_all();
+  }
+
+  bool closed() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return closed_;
+  }
+  /// True when closed and nothing is waiting.
+  bool drained() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return closed_ && count_ == 0;
+  }
+  size_t size() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return count_;
+  }
+  size_t capacity() const { return slots_.size(); }
+  uint64_t pushed() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return pushed_;
+  }
+  /// Items dropped because the queue was full.
+  uint64_t dropped() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return dropped_;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::vector<T> slots_;
+  size_t head_{0};
+  size_t count_{0};
+  uint64_t pushed_{0};
+  uint64_t dropped_{0};
+  bool closed_{false};
+};
+
+}  // namespace clutterseg::daemon
