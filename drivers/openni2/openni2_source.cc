@@ -17,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/drivers/oni/oni_reader.h"
 
 namespace clutterseg::drivers {
@@ -114,18 +115,13 @@ int ValidateRecording(const std::string& path, bool* has_color) {
 }  // namespace
 
 void OpenNI2SourceOptions::ValidateOrThrow() const {
-  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
-    throw std::invalid_argument("OpenNI2 source option " + key + " = " + value + " is invalid (" +
-                                want + ")");
-  };
-  if (!uri.empty() && !serial.empty()) fail("serial", serial, "give either uri or serial");
-  if (width <= 0 || width > 4096) fail("width", std::to_string(width), "expected 1..4096 px");
-  if (height <= 0 || height > 4096) fail("height", std::to_string(height), "expected 1..4096 px");
-  if (fps <= 0 || fps > 1000) fail("fps", std::to_string(fps), "expected 1..1000");
-  if (!(replay_speed == -1.0 || (replay_speed > 0.0 && replay_speed <= 1000.0))) {
-    fail("replay_speed", std::to_string(replay_speed),
-         "expected -1 (lockstep) or a speed factor in (0, 1000]");
-  }
+  const core::ParamCheck check("camera");
+  check.Require(uri.empty() || serial.empty(), "serial", serial, "either a URI or a serial");
+  check.InRange("width", width, 1, 4096, "px");
+  check.InRange("height", height, 1, 4096, "px");
+  check.InRange("fps", fps, 1, 1000);
+  check.Require(replay_speed == -1.0 || (replay_speed > 0.0 && replay_speed <= 1000.0),
+                "replay_speed", replay_speed, "-1 (lockstep) or a speed factor in (0, 1000]");
 }
 
 void InitializeOpenNI2(OpenNI2Drivers drivers) {

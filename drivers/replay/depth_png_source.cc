@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/drivers/replay/pcd_directory_source.h"
 #include "clutterseg/io/png_io.h"
 
@@ -41,17 +42,11 @@ bool IsFile(const fs::path& p) {
 }  // namespace
 
 void DepthPngSourceOptions::ValidateOrThrow() const {
-  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
-    throw std::invalid_argument("depth PNG source option " + key + " = '" + value +
-                                "' is invalid (" + want + ")");
-  };
-  if (directory.empty()) fail("directory", directory, "expected a directory");
-  if (!(depth_scale_to_mm > 0.0 && depth_scale_to_mm < 1000.0)) {
-    fail("depth_scale_to_mm", std::to_string(depth_scale_to_mm), "expected (0, 1000)");
-  }
-  if (frame_period_us <= 0) {
-    fail("frame_period_us", std::to_string(frame_period_us), "expected > 0");
-  }
+  const core::ParamCheck check("source.depth_png");
+  check.NonEmpty("directory", directory, "a directory");
+  check.Require(depth_scale_to_mm > 0.0 && depth_scale_to_mm < 1000.0, "depth_scale_to_mm",
+                depth_scale_to_mm, "(0, 1000)");
+  check.Positive("frame_period_us", frame_period_us, "us");
   intrinsics.ValidateOrThrow();
 }
 

@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/io/pcd.h"
 
@@ -25,14 +26,9 @@ void NaturalSort(std::vector<std::string>* names) {
 }  // namespace internal
 
 void PcdDirectorySourceOptions::ValidateOrThrow() const {
-  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
-    throw std::invalid_argument("PCD directory source option " + key + " = '" + value +
-                                "' is invalid (" + want + ")");
-  };
-  if (path.empty()) fail("path", path, "expected a directory or a .pcd file");
-  if (frame_period_us <= 0) {
-    fail("frame_period_us", std::to_string(frame_period_us), "expected > 0");
-  }
+  const core::ParamCheck check("source.pcd");
+  check.NonEmpty("path", path, "a directory or a .pcd file");
+  check.Positive("frame_period_us", frame_period_us, "us");
   if (!estimate_intrinsics) intrinsics.ValidateOrThrow();
 }
 

@@ -8,23 +8,17 @@
 #include <thread>
 #include <vector>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/synth/renderer.h"
 
 namespace clutterseg::drivers {
 
 void SyntheticSourceOptions::ValidateOrThrow() const {
-  auto fail = [](const std::string& key, const std::string& value, const std::string& want) {
-    throw std::invalid_argument("synthetic source option " + key + " = " + value + " is invalid (" +
-                                want + ")");
-  };
-  if (num_frames < 1) fail("num_frames", std::to_string(num_frames), "expected >= 1");
-  if (frame_period_us <= 0) {
-    fail("frame_period_us", std::to_string(frame_period_us), "expected > 0");
-  }
-  if (render_threads < 1 || render_threads > 256) {
-    fail("render_threads", std::to_string(render_threads), "expected 1..256");
-  }
+  const core::ParamCheck check("source.synthetic");
+  check.AtLeast("num_frames", num_frames, decltype(num_frames){1});
+  check.Positive("frame_period_us", frame_period_us, "us");
+  check.InRange("render_threads", render_threads, 1, 256);
   scene.ValidateOrThrow();
   sensor.ValidateOrThrow();
   intrinsics.ValidateOrThrow();

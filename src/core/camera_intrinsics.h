@@ -1,6 +1,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 namespace clutterseg::core {
 
@@ -15,8 +16,10 @@ struct CameraIntrinsics {
   double cx{319.5};
   double cy{239.5};
 
-  /// @throws std::invalid_argument naming the bad field when a value is out of range.
-  void ValidateOrThrow() const;
+  /// Checks the sizes, that the focal lengths give a field of view a camera can have (10 to
+  /// 150 degrees) and that the principal point lies near the image.
+  /// @throws std::invalid_argument naming `<section>.<field>` and the value.
+  void ValidateOrThrow(std::string_view section = "intrinsics") const;
   /// Scales the intrinsics to another resolution of the same sensor.
   CameraIntrinsics Scaled(int new_width, int new_height) const;
   /// Human readable one-line description.

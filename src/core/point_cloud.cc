@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/core/simd_points.h"
 #include "clutterseg/core/thread_pool.h"
 
@@ -17,18 +18,22 @@ size_t PointCloud::CountValid() const {
   return n;
 }
 
-void CameraIntrinsics::ValidateOrThrow() const {
-  auto fail = [](const char* key, double value, const char* want) {
-    std::ostringstream os;
-    os << "camera intrinsics: " << key << " = " << value << " is invalid (" << want << ")";
-    throw std::invalid_argument(os.str());
-  };
-  if (width <= 0 || width > 16384) fail("width", width, "expected 1..16384 px");
-  if (height <= 0 || height > 16384) fail("height", height, "expected 1..16384 px");
-  if (!(fx > 0.0 && fx < 1e6)) fail("fx", fx, "expected a positive focal length in px");
-  if (!(fy > 0.0 && fy < 1e6)) fail("fy", fy, "expected a positive focal length in px");
-  if (!std::isfinite(cx)) fail("cx", cx, "expected a finite principal point");
-  if (!std::isfinite(cy)) fail("cy", cy, "expected a finite principal point");
+void CameraIntrinsics::ValidateOrThrow(std::string_view section) const {
+  const ParamCheck check(section);
+  check.InRange("width", width, 1, 16384, "px");
+  check.InRange("height", height, 1, 16384, "px");
+  // A real camera sees between about 10 and 150 degrees: fx = width / (2 tan(fov / 2)). A
+  // focal length outside that range (a corrupted FOV, a unit mistake) would make every
+  // pixel its own voxel or every frame one voxel.
+  constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
+  const double tan_lo = std::tan(5.0 * kDegToRad), tan_hi = std::tan(75.0 * kDegToRad);
+  check.InRange("fx", fx, 0.5 * width / tan_hi, 0.5 * width / tan_lo,
+                "px (a horizontal field of view of 10..150 deg)");
+  check.InRange("fy", fy, 0.5 * height / tan_hi,
+                std::max(0.5 * height / tan_lo, 0.5 * width / tan_lo),
+                "px (a vertical field of view of 10..150 deg)");
+  check.InRange("cx", cx, -0.5 * width, 1.5 * width, "px (near the image)");
+  check.InRange("cy", cy, -0.5 * height, 1.5 * height, "px (near the image)");
 }
 
 CameraIntrinsics CameraIntrinsics::Scaled(int new_width, int new_height) const {

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/core/param_check.h"
 
 namespace clutterseg::eval {
 namespace {
@@ -52,10 +53,7 @@ std::string_view GtConventionName(GtConvention convention) {
 }
 
 void EvalParams::ValidateOrThrow() const {
-  if (min_coverage_percent < 1 || min_coverage_percent > 100) {
-    throw std::invalid_argument("min_coverage_percent: must be in [1, 100], got " +
-                                std::to_string(min_coverage_percent));
-  }
+  core::ParamCheck("eval").InRange("min_coverage_percent", min_coverage_percent, 1, 100, "%");
   switch (gt_convention) {
     case GtConvention::kPlain:
     case GtConvention::kMosdParts:

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/synth/random.h"
 
@@ -614,10 +615,11 @@ class Generator {
   std::vector<Placed> placed_;
 };
 
+// Every check goes through core::ParamCheck: one message format, naming the field.
 [[noreturn]] void Invalid(const char* key, double value, const char* want) {
-  std::ostringstream os;
-  os << "scene params: " << key << " = " << value << " is invalid (" << want << ")";
-  throw std::invalid_argument(os.str());
+  const std::string_view w(want);
+  core::ParamCheck("scene").Fail(key, core::FormatParamValue(value),
+                                 w.rfind("expected ", 0) == 0 ? w.substr(9) : w);
 }
 
 }  // namespace

@@ -4,13 +4,16 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "clutterseg/core/param_check.h"
+
 namespace clutterseg::synth {
 namespace {
 
+// Every check goes through core::ParamCheck: one message format, naming the field.
 [[noreturn]] void Invalid(const char* key, double value, const char* want) {
-  std::ostringstream os;
-  os << "sensor params: " << key << " = " << value << " is invalid (" << want << ")";
-  throw std::invalid_argument(os.str());
+  const std::string_view w(want);
+  core::ParamCheck("sensor").Fail(key, core::FormatParamValue(value),
+                                  w.rfind("expected ", 0) == 0 ? w.substr(9) : w);
 }
 
 }  // namespace

@@ -623,11 +623,12 @@ TEST(DaemonFaultScripted, SlowConsumerDropsOldestAndLatencyStaysBounded) {
   EXPECT_GE(rises, 2) << "drops accumulate over the run, not in one burst";
 
   // Bounded latency, in frames: once frame n is captured, the frames still waiting in the
-  // queue are at least n - queue_capacity; only the frames in the lanes (pipeline_depth) and
-  // the one the dispatcher holds for a lane can be older. So the (depth+1)-th frame published
+  // queue are at least n - queue_capacity; only the frames in the lanes (pipeline_depth), the
+  // one the dispatcher holds for a lane and those waiting in the LCM sink's own queue
+  // (lcm.queue_capacity) can be older. So the (depth + 1 + sink queue)-th frame published
   // after frame n's capture is at least n - queue_capacity.
   const int64_t cap = c.capture.queue_capacity;
-  const int64_t lag = c.processing.pipeline_depth + 1;
+  const int64_t lag = c.processing.pipeline_depth + 1 + c.lcm.queue_capacity;
   int64_t worst = 0;
   for (size_t n = 0; n < published_at_capture.size(); ++n) {
     const int64_t k = published_at_capture[n] + lag;

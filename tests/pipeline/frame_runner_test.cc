@@ -1,0 +1,209 @@
+#include "clutterseg/pipeline/frame_runner.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+
+namespace clutterseg::pipeline {
+namespace {
+
+using std::chrono::milliseconds;
+
+// Counts how many Work calls run at once.
+struct Concurrency {
+  std::atomic<int> now{0};
+  std::atomic<int> max{0};
+  void Enter() {
+    const int n = now.fetch_add(1) + 1;
+    int m = max.load();
+    while (n > m && !max.compare_exchange_weak(m, n)) {
+    }
+  }
+  void Leave() { now.fetch_sub(1); }
+};
+
+FrameRunnerParams Params(int lanes, int threads, DispatchPolicy policy) {
+  FrameRunnerParams p;
+  p.pipeline_depth = lanes;
+  p.threads = threads;
+  p.policy = policy;
+  return p;
+}
+
+TEST(FrameRunner, CompletesInSubmissionOrderWithEachLanesOutput) {
+  constexpr int kLanes = 3;
+  constexpr uint64_t kItems = 40;
+  std::vector<uint64_t> lane_output(kLanes, 0);  // what each lane's Work left
+  std::vector<uint64_t> done_order;
+  std::vector<int> lanes_used(kLanes, 0);
+  std::mutex mutex;
+  auto work = [&](const FrameRunner::Lane& lane, uint64_t item) {
+    // Uneven work so that later items often finish first.
+    std::this_thread::sleep_for(milliseconds((item * 7) % 5));
+    lane_output[static_cast<size_t>(lane.index)] = item;
+  };
+  auto done = [&](const FrameRunner::Lane& lane, uint64_t item, const std::string* error) {
+    ASSERT_EQ(error, nullptr);
+    // The lane's output is still the item's: the lane waits for its completion.
+    EXPECT_EQ(lane_output[static_cast<size_t>(lane.index)], item);
+    std::lock_guard<std::mutex> lock(mutex);
+    done_order.push_back(item);
+    ++lanes_used[static_cast<size_t>(lane.index)];
+  };
+  FrameRunner dut(SegmenterParams{}, Params(kLanes, 1, DispatchPolicy::kThroughput), work, done);
+  ASSERT_EQ(dut.num_lanes(), kLanes);
+  for (uint64_t i = 0; i < kItems; ++i) ASSERT_TRUE(dut.Submit(i));
+  dut.Drain();
+  EXPECT_EQ(dut.completed(), kItems);
+  ASSERT_EQ(done_order.size(), kItems);
+  for (uint64_t i = 0; i < kItems; ++i) EXPECT_EQ(done_order[i], i);
+  for (int l = 0; l < kLanes; ++l) EXPECT_GT(lanes_used[l], 0) << "lane " << l << " idle";
+  std::vector<uint64_t> inputs;
+  dut.TakeFinishedInputs(&inputs);
+  std::sort(inputs.begin(), inputs.end());
+  ASSERT_EQ(inputs.size(), kItems);
+  for (uint64_t i = 0; i < kItems; ++i) EXPECT_EQ(inputs[i], i);
+  inputs.clear();
+  dut.TakeFinishedInputs(&inputs);
+  EXPECT_TRUE(inputs.empty()) << "each input is handed back once";
+}
+
+TEST(FrameRunner, LatencyFirstWaitsForTheBusyLaneUnlessItemsQueueBehind) {
+  for (const bool backlog : {false, true}) {
+    Concurrency c;
+    auto work = [&](const FrameRunner::Lane&, uint64_t) {
+      c.Enter();
+      std::this_thread::sleep_for(milliseconds(20));
+      c.Leave();
+    };
+    FrameRunner dut(SegmenterParams{}, Params(2, 1, DispatchPolicy::kLatencyFirst), work,
+                    [](const FrameRunner::Lane&, uint64_t, const std::string*) {});
+    for (uint64_t i = 0; i < 6; ++i) {
+      ASSERT_TRUE(dut.Submit(i, [&] { return backlog ? size_t{3} : size_t{0}; }));
+    }
+    dut.Drain();
+    // Alone, an item has the machine to itself; with items waiting the lanes pipeline.
+    EXPECT_EQ(c.max.load(), backlog ? 2 : 1) << "backlog " << backlog;
+  }
+}
+
+TEST(FrameRunner, AWorkExceptionCompletesItsItemWithTheErrorAndTheRestGoOn) {
+  std::vector<std::string> errors;
+  std::vector<uint64_t> done_items;
+  auto work = [](const FrameRunner::Lane&, uint64_t item) {
+    if (item == 2) throw std::runtime_error("frame 2 is broken");
+  };
+  auto done = [&](const FrameRunner::Lane&, uint64_t item, const std::string* error) {
+    done_items.push_back(item);
+    errors.push_back(error != nullptr ? *error : "");
+  };
+  FrameRunner dut(SegmenterParams{}, Params(2, 1, DispatchPolicy::kThroughput), work, done);
+  for (uint64_t i = 0; i < 5; ++i) dut.Submit(i);
+  dut.Drain();
+  ASSERT_EQ(done_items, (std::vector<uint64_t>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(errors[2], "frame 2 is broken");
+  EXPECT_EQ(errors[1], "");
+  EXPECT_EQ(errors[3], "");
+}
+
+TEST(FrameRunner, CloseRefusesNewItemsAndFinishesStartedOnes) {
+  std::atomic<int> done_count{0};
+  FrameRunner dut(
+      SegmenterParams{}, Params(1, 1, DispatchPolicy::kThroughput),
+      [](const FrameRunner::Lane&, uint64_t) { std::this_thread::sleep_for(milliseconds(30)); },
+      [&](const FrameRunner::Lane&, uint64_t, const std::string*) { done_count.fetch_add(1); });
+  ASSERT_TRUE(dut.Submit(0));
+  // The only lane is busy: this Submit waits until Close releases it.
+  std::thread closer([&] {
+    std::this_thread::sleep_for(milliseconds(5));
+    dut.Close();
+  });
+  EXPECT_FALSE(dut.Submit(1));
+  closer.join();
+  dut.Drain();
+  EXPECT_EQ(done_count.load(), 1);
+  EXPECT_FALSE(dut.Submit(2));
+}
+
+TEST(FrameRunner, UpdateParamsValidatesAndReachesEveryLane) {
+  std::vector<float> seen(2, 0.f);
+  auto work = [&](const FrameRunner::Lane& lane, uint64_t) {
+    seen[static_cast<size_t>(lane.index)] =
+        lane.segmenter->params().linkage.concavity_tolerance_deg;
+  };
+  FrameRunner dut(SegmenterParams{}, Params(2, 1, DispatchPolicy::kThroughput), work,
+                  [](const FrameRunner::Lane&, uint64_t, const std::string*) {});
+  SegmenterParams bad;
+  bad.supervoxel.grid.voxel_resolution_m = -1.f;
+  EXPECT_THROW(dut.UpdateParams(bad), std::invalid_argument);
+  SegmenterParams p;
+  p.linkage.concavity_tolerance_deg = 12.f;
+  dut.UpdateParams(p);
+  // Both lanes run items after the update.
+  for (uint64_t i = 0; i < 8; ++i) dut.Submit(i);
+  dut.Drain();
+  EXPECT_EQ(seen[0], 12.f);
+  EXPECT_EQ(seen[1], 12.f);
+}
+
+TEST(FrameRunner, RealSegmentationDoesNotDependOnLanesOrThreads) {
+  synth::SceneParams sp;
+  sp.min_objects = 3;
+  sp.max_objects = 5;
+  std::vector<core::PointCloud> clouds(4);
+  for (size_t i = 0; i < clouds.size(); ++i) {
+    const synth::Scene scene = synth::GenerateScene(sp, 100 + i);
+    synth::RenderedFrame frame;
+    synth::RenderScene(scene, sp.intrinsics, synth::SensorParams{}, 100 + i, &frame);
+    synth::ToPointCloud(frame, &clouds[i]);
+  }
+  auto run = [&](int lanes, int threads, DispatchPolicy policy) {
+    std::vector<std::vector<uint32_t>> labels(clouds.size());
+    std::vector<std::vector<uint32_t>> lane_labels(static_cast<size_t>(lanes));
+    auto work = [&](const FrameRunner::Lane& lane, uint64_t item) {
+      lane.segmenter->Process(clouds[item], sp.intrinsics, lane.result);
+      lane_labels[static_cast<size_t>(lane.index)] = lane.result->labels.data;
+    };
+    auto done = [&](const FrameRunner::Lane& lane, uint64_t item, const std::string* error) {
+      ASSERT_EQ(error, nullptr) << *error;
+      labels[item] = lane_labels[static_cast<size_t>(lane.index)];
+    };
+    FrameRunner dut(SegmenterParams{}, Params(lanes, threads, policy), work, done);
+    for (uint64_t i = 0; i < clouds.size(); ++i) dut.Submit(i);
+    dut.Drain();
+    return labels;
+  };
+  const auto reference = run(1, 1, DispatchPolicy::kThroughput);
+  for (const auto& r : reference) {
+    EXPECT_GT(*std::max_element(r.begin(), r.end()), 0u) << "objects found";
+  }
+  EXPECT_EQ(run(2, 2, DispatchPolicy::kThroughput), reference);
+  EXPECT_EQ(run(2, 2, DispatchPolicy::kLatencyFirst), reference);
+  EXPECT_EQ(run(3, 1, DispatchPolicy::kThroughput), reference);
+}
+
+TEST(FrameRunnerParams, ValidationNamesTheKey) {
+  FrameRunnerParams p;
+  p.pipeline_depth = 0;
+  try {
+    p.ValidateOrThrow();
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("processing.pipeline_depth = 0 is invalid"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace clutterseg::pipeline
