@@ -288,7 +288,7 @@ void Daemon::Join() {
 
 int Daemon::exit_code() const {
   std::lock_guard<std::mutex> lock(impl_->error_mutex);
-  return impl_->failed ? kExitRuntimeError : kExitOk;
+  return impl_->failed ? kExitFailure : kExitOk;
 }
 
 std::string Daemon::error() const {
