@@ -5,6 +5,7 @@
 #include <limits>
 #include <sstream>
 #include <stdexcept>
+#include <string>
 
 #include "clutterseg/core/assert.h"
 
@@ -15,6 +16,10 @@ void TrackingEvalParams::ValidateOrThrow() const {
     std::ostringstream os;
     os << "tracking eval: match_distance_m = " << match_distance_m << " is invalid (expected > 0)";
     throw std::invalid_argument(os.str());
+  }
+  if (settle_frames < 0) {
+    throw std::invalid_argument("tracking eval: settle_frames = " + std::to_string(settle_frames) +
+                                " is invalid (expected >= 0)");
   }
 }
 
@@ -59,7 +64,8 @@ void TrackingEvaluator::AddFrame(std::span<const uint32_t> gt_ids,
   cur_pred_.assign(pred_ids.begin(), pred_ids.end());
   cur_pred_.insert(cur_pred_.end(), remembered_ids.begin(), remembered_ids.end());
   std::sort(cur_pred_.begin(), cur_pred_.end());
-  if (frames_ > 0 && cur_gt_ == prev_gt_) {
+  same_gt_run_ = frames_ > 0 && cur_gt_ == prev_gt_ ? same_gt_run_ + 1 : 1;
+  if (same_gt_run_ >= params_.settle_frames + 2) {
     ++steady_pairs_;
     if (cur_pred_ != prev_pred_) ++flicker_pairs_;
   }

@@ -15,8 +15,13 @@ struct TrackingEvalParams {
   /// A ground-truth object is matched, in each frame, to the predicted object whose centroid
   /// is nearest to its centroid, when that is at most this far, metres.
   float match_distance_m{0.03f};
+  /// Flicker only counts frame pairs whose ground-truth set has not changed for this many
+  /// frames before them (0 = any pair with the same set), so that a delay a consumer chose on
+  /// purpose (a tracker confirming new objects) does not count as flicker.
+  int settle_frames{0};
 
-  /// @throws std::invalid_argument naming the key and value (match_distance_m not > 0).
+  /// @throws std::invalid_argument naming the key and value (match_distance_m not > 0,
+  /// settle_frames < 0).
   void ValidateOrThrow() const;
 };
 
@@ -64,8 +69,8 @@ struct TrackingMetrics {
 /// - Id switches: changes of the matched id between consecutive matched frames of an object.
 /// - Id reuse: sum over predicted ids of (distinct ground-truth objects matched - 1).
 /// - Flicker: among consecutive frame pairs whose ground-truth id sets are equal (nothing
-///   changed in the scene), the share whose predicted id sets differ (an object appearing or
-///   vanishing, or a count change).
+///   changed in the scene, for settle_frames frames before as well), the share whose
+///   predicted id sets differ (an object appearing or vanishing, or a count change).
 ///
 /// Thread-safety: none (one instance per sequence and thread).
 class TrackingEvaluator {
@@ -100,6 +105,7 @@ class TrackingEvaluator {
   std::map<int64_t, std::set<uint32_t>> id_objects_;
   std::vector<uint32_t> prev_gt_, cur_gt_;
   std::vector<int64_t> prev_pred_, cur_pred_;
+  int same_gt_run_{0};  // consecutive frames up to the last one with its ground-truth set
   int steady_pairs_{0};
   int flicker_pairs_{0};
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <sstream>
 #include <stdexcept>
 
@@ -175,7 +176,13 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   uint32_t cur_max_label = 0;
   for (const Object& o : frame.objects) cur_max_label = std::max(cur_max_label, o.id);
   label_to_det.assign(static_cast<size_t>(cur_max_label) + 1, -1);
-  for (int d = 0; d < num_dets; ++d) label_to_det[frame.objects[static_cast<size_t>(d)].id] = d;
+  // Segmenter numbers its objects 1..n: then every label up to the largest is an object.
+  bool ids_contiguous = cur_max_label == static_cast<uint32_t>(num_dets);
+  for (int d = 0; d < num_dets; ++d) {
+    const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
+    ids_contiguous = ids_contiguous && id != 0 && label_to_det[id] < 0;
+    label_to_det[id] = d;
+  }
 
   // Pixel overlap between the previous frame's tracks and this frame's objects.
   const size_t num_pixels = frame.labels.data.size();
@@ -184,17 +191,29 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   const size_t stride = static_cast<size_t>(cur_max_label) + 1;
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
-    // One pass counts the overlap and keeps this frame's labels for the next one.
+    // One pass counts the overlap and keeps this frame's labels for the next one. Most
+    // pixels are background in both frames: blocks of 8 such pixels are skipped at once.
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
-    for (size_t i = 0; i < num_pixels; ++i) {
+    const bool contiguous = ids_contiguous;
+    auto visit = [&](size_t i) {
       const uint32_t p = prev[i];
       uint32_t c = cur[i];
-      if ((p | c) == 0) continue;
-      if (c > cur_max_label || label_to_det[c] < 0) c = 0;  // no such object: background
+      if ((p | c) == 0) return;
+      // A label without an object is background.
+      if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
       prev[i] = c;
       ++counts[p * stride + c];
+    };
+    size_t i = 0;
+    for (; i + 8 <= num_pixels; i += 8) {
+      uint64_t a[4], b[4];
+      std::memcpy(a, prev + i, sizeof(a));
+      std::memcpy(b, cur + i, sizeof(b));
+      if (((a[0] | b[0]) | (a[1] | b[1]) | (a[2] | b[2]) | (a[3] | b[3])) == 0) continue;
+      for (size_t j = i; j < i + 8; ++j) visit(j);
     }
+    for (; i < num_pixels; ++i) visit(i);
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     for (size_t p = 0; p <= prev_max_label; ++p) {
@@ -258,7 +277,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
 
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
   // the part with the most points keeps it. Merges: a track whose previous mask lies mostly
-  // on one object is absorbed by it; only the track of largest overlap keeps the object.
+  // on one object is absorbed by it; only the largest of those tracks keeps the object.
   if (overlap) {
     for (int r = 0; r < num_tracks; ++r) {
       const Track& t = tracks[static_cast<size_t>(r)];
@@ -302,8 +321,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           continue;
         }
         const Track& b = tracks[static_cast<size_t>(best)];
+        // The larger object: its largest recent view (a track seen partly hidden keeps the
+        // size it had), then the larger overlap; the older track on a tie.
         const uint32_t ib = inter(b, d);
-        if (i > ib || (i == ib && prev_size[t.prev_label] > prev_size[b.prev_label])) best = r;
+        if (t.ref_points > b.ref_points || (t.ref_points == b.ref_points && i > ib)) best = r;
       }
       if (absorbed < 2) continue;
       ++out->counts.merges;

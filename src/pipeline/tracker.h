@@ -50,8 +50,9 @@ struct TrackerParams {
   /// its own pixels is a part of that track; when a track has several parts, only the part
   /// with the most points keeps the track (the others get other or new ids). A track whose
   /// previous mask lies on one object by at least this share is absorbed by it; when an
-  /// object absorbs several tracks, only the track with the largest overlap keeps the object
-  /// and the others become lost-but-remembered (0.5..1).
+  /// object absorbs several tracks, only the largest track (by the point count of its largest
+  /// recent view, see reference_decay; then by overlap) keeps the object and the others become
+  /// lost-but-remembered (0.5..1).
   float part_min_fraction{0.5f};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
@@ -132,7 +133,7 @@ struct TrackingResult {
 /// (same label image layout: organized WxH or an unorganized 1xN cloud in the same point
 /// order), or their centroids are close and their sizes alike; a lost track only when the
 /// object lies in its remembered box. Splits keep the id on the largest part, merges on the
-/// track of largest overlap (see TrackerParams::part_min_fraction).
+/// largest track (see TrackerParams::part_min_fraction).
 ///
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).

@@ -78,6 +78,24 @@ TEST_F(TrackingEvaluatorTest, ChangesOfTheSceneAreNotFlicker) {
   EXPECT_DOUBLE_EQ(m.flicker, 0.0);
 }
 
+TEST(TrackingEvaluatorSettle, PairsRightAfterAChangeAreLeftOut) {
+  TrackingEvalParams params;
+  params.settle_frames = 2;
+  TrackingEvaluator dut(params);
+  const std::vector<uint32_t> one = {1}, two = {1, 2};
+  const std::vector<core::Vec3f> one_c = {kA}, two_c = {kA, kB};
+  const std::vector<int64_t> p1 = {3}, p2 = {3, 4};
+  dut.AddFrame(one, one_c, p1, one_c);
+  dut.AddFrame(two, two_c, p1, one_c);  // object 2 added, shown two frames later
+  dut.AddFrame(two, two_c, p1, one_c);
+  dut.AddFrame(two, two_c, p2, two_c);
+  dut.AddFrame(two, two_c, p2, two_c);
+  const TrackingMetrics m = dut.Summarize();
+  EXPECT_EQ(m.steady_pairs, 1);  // only (3, 4): the set has held since frame 1
+  EXPECT_EQ(m.flicker_pairs, 0);
+  EXPECT_THROW(TrackingEvaluator(TrackingEvalParams{0.03f, -1}), std::invalid_argument);
+}
+
 TEST_F(TrackingEvaluatorTest, RememberedIdsCountForFlickerOnly) {
   const std::vector<uint32_t> gt = {1, 2};
   const std::vector<core::Vec3f> gt_c = {kA, kB};
