@@ -181,7 +181,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   for (int d = 0; d < num_dets; ++d) {
     const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
     ids_contiguous = ids_contiguous && id != 0 && label_to_det[id] < 0;
-    label_to_det[id] = d;
+    if (id != 0) label_to_det[id] = d;
   }
 
   // Pixel overlap between the previous frame's tracks and this frame's objects.
@@ -225,8 +225,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
   }
   auto inter = [&](const Track& t, int d) -> uint32_t {
-    if (!overlap || t.prev_label == 0) return 0;
-    return counts[t.prev_label * stride + frame.objects[static_cast<size_t>(d)].id];
+    const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
+    if (!overlap || t.prev_label == 0 || id == 0) return 0;  // id 0 would be background
+    return counts[t.prev_label * stride + id];
   };
 
   // Association scores, tracks x objects; 0 = not allowed.
@@ -462,6 +463,11 @@ void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, Trackin
 }
 
 void Tracker::Reset() { impl_->reset_pending = true; }
+
+void Tracker::SetParams(const TrackerParams& params) {
+  params.ValidateOrThrow();
+  impl_->params = params;
+}
 
 const TrackerParams& Tracker::params() const { return impl_->params; }
 

@@ -159,6 +159,12 @@ class Tracker {
   /// reports them in ended_track_ids and sets TrackingResult::reset.
   void Reset();
 
+  /// Replaces the parameters for the following Updates, keeping every track (so a
+  /// configuration reload between frames does not renumber the objects). Not to be called
+  /// during Update.
+  /// @throws std::invalid_argument when `params` fail validation (the old ones stay).
+  void SetParams(const TrackerParams& params);
+
   const TrackerParams& params() const;
   /// The id the next new track will get.
   int64_t next_track_id() const;

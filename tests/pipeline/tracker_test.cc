@@ -275,6 +275,19 @@ TEST_F(TrackerTest, ResetAndRestartedSequencesEndEveryTrack) {
   EXPECT_EQ(Ids(out_), (std::vector<int64_t>{5}));
 }
 
+TEST_F(TrackerTest, NewParamsKeepTheTracks) {
+  for (int f = 0; f < 2; ++f) Step({kA, kB});
+  TrackerParams p = params_;
+  p.confirm_frames = 1;
+  dut_.SetParams(p);
+  const TrackingResult& t = Step({kA, kB, kC});
+  EXPECT_EQ(Ids(t), (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_EQ(t.objects[2].state, TrackState::kConfirmed);
+  p.memory_frames = -1;
+  EXPECT_THROW(dut_.SetParams(p), std::invalid_argument);
+  EXPECT_EQ(dut_.params().confirm_frames, 1);
+}
+
 TEST_F(TrackerTest, EmptyFramesAndLabelsWithoutObjectsAreHandled) {
   SegmentationResult empty;
   dut_.Update(empty, 0, &out_);
