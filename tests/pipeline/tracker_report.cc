@@ -6,6 +6,7 @@
 //   shown   - the tracker's ids on confirmed objects; remembered tracks count as present
 // plus the tracker's wall time per frame. Usage:
 //   tracker_report [--seeds 1,2,3] [--frames 40] [--objects 6] [--step 4] [--threads 2]
+//                  [--confirm N] [--memory N] [--occluder arm|box]
 //                  [--dump SCENARIO]   (per-frame tracks of SCENARIO for the first seed)
 #include <cstdio>
 #include <cstdlib>
@@ -67,6 +68,8 @@ int Main(int argc, char** argv) {
   std::vector<uint64_t> seeds = {1, 2, 3};
   int frames = 40, objects = 6, step = 4, threads = 1;
   std::string dump;
+  TrackerParams tracker_params;
+  synth::OccluderShape occluder = synth::OccluderShape::kArm;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
     if (key == "--seeds") {
@@ -85,6 +88,12 @@ int Main(int argc, char** argv) {
       step = std::stoi(value);
     } else if (key == "--threads") {
       threads = std::stoi(value);
+    } else if (key == "--confirm") {
+      tracker_params.confirm_frames = std::stoi(value);
+    } else if (key == "--memory") {
+      tracker_params.memory_frames = std::stoi(value);
+    } else if (key == "--occluder") {
+      occluder = synth::ParseOccluderShape(value);
     } else if (key == "--dump") {
       dump = value;
     } else {
@@ -99,11 +108,16 @@ int Main(int argc, char** argv) {
     seq.num_frames = frames;
     seq.num_objects = objects;
     seq.step_frames = step;
-    Dump(RunScenario(TrackingSceneParams(), seq, seeds.front(), TrackerParams{}, &pool));
+    seq.occluder_shape = occluder;
+    Dump(RunScenario(TrackingSceneParams(), seq, seeds.front(), tracker_params, &pool));
     return 0;
   }
-  std::printf("%zu seeds, %d frames, %d objects, a change every %d frames\n\n", seeds.size(),
-              frames, objects, step);
+  tracker_params.ValidateOrThrow();
+  std::printf(
+      "%zu seeds, %d frames, %d objects, a change every %d frames, %s occluder; tracker "
+      "confirm_frames %d, memory_frames %d\n\n",
+      seeds.size(), frames, objects, step, std::string(synth::OccluderShapeName(occluder)).c_str(),
+      tracker_params.confirm_frames, tracker_params.memory_frames);
   std::printf("| scenario   | ids    | consistency | switches | reuse | coverage | flicker |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   std::vector<double> ms;
@@ -117,7 +131,8 @@ int Main(int argc, char** argv) {
       seq.num_frames = frames;
       seq.num_objects = objects;
       seq.step_frames = step;
-      const ScenarioRun run = RunScenario(TrackingSceneParams(), seq, seed, TrackerParams{}, &pool);
+      seq.occluder_shape = occluder;
+      const ScenarioRun run = RunScenario(TrackingSceneParams(), seq, seed, tracker_params, &pool);
       label.Add(run.label_value);
       tracks.Add(run.track_all);
       shown.Add(run.track_confirmed);

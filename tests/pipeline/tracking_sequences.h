@@ -54,10 +54,11 @@ inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::Seq
   const std::vector<synth::Scene> frames = synth::GenerateScenarioSequence(scene, seq, seed);
   Segmenter segmenter(SegmenterParams{}, pool);
   Tracker tracker(tracker_params);
-  // Flicker is counted once a change of the scene is confirm_frames - 1 frames old (the
-  // delay before a new object is shown), for every kind of id alike.
+  // Flicker is counted once a change of the scene is two frames old (the default delay
+  // before a new object is shown, TrackerParams{}.confirm_frames - 1), for every kind of id
+  // and every tracker configuration alike.
   eval::TrackingEvalParams eval_params;
-  eval_params.settle_frames = tracker_params.confirm_frames - 1;
+  eval_params.settle_frames = TrackerParams{}.confirm_frames - 1;
   eval::TrackingEvaluator ev_label(eval_params), ev_all(eval_params), ev_confirmed(eval_params);
   synth::RenderedFrame rendered;
   core::PointCloud cloud;
