@@ -3,24 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
-#include <string>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/core/param_check.h"
 
 namespace clutterseg::eval {
 
 void TrackingEvalParams::ValidateOrThrow() const {
-  if (!(std::isfinite(match_distance_m) && match_distance_m > 0.f)) {
-    std::ostringstream os;
-    os << "tracking eval: match_distance_m = " << match_distance_m << " is invalid (expected > 0)";
-    throw std::invalid_argument(os.str());
-  }
-  if (settle_frames < 0) {
-    throw std::invalid_argument("tracking eval: settle_frames = " + std::to_string(settle_frames) +
-                                " is invalid (expected >= 0)");
-  }
+  const core::ParamCheck check("tracking_eval");
+  check.Positive("match_distance_m", match_distance_m, "m");
+  check.AtLeast("settle_frames", settle_frames, 0);
 }
 
 TrackingEvaluator::TrackingEvaluator(const TrackingEvalParams& params) : params_(params) {

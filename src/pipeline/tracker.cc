@@ -4,29 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <sstream>
-#include <stdexcept>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/optimize/assignment.h"
 
 namespace clutterseg::pipeline {
 namespace {
-
-[[noreturn]] void Fail(const char* key, double value, const char* want) {
-  std::ostringstream os;
-  os << "tracker." << key << " = " << value << " is invalid (" << want << ")";
-  throw std::invalid_argument(os.str());
-}
-
-void CheckUnit(const char* key, float v, bool allow_zero) {
-  if (!(std::isfinite(v) && v <= 1.f && (allow_zero ? v >= 0.f : v > 0.f))) {
-    Fail(key, v, allow_zero ? "expected in [0, 1]" : "expected in (0, 1]");
-  }
-}
-
-void CheckDistance(const char* key, float v) {
-  if (!(std::isfinite(v) && v > 0.f && v <= 10.f)) Fail(key, v, "expected in (0, 10] m");
-}
 
 // An association that passed its gate scores at least this much, so that a gated pair is
 // never confused with a forbidden one (score 0).
@@ -88,29 +71,23 @@ bool SizesAlike(float diag_a, float diag_b, float max_ratio) {
 }  // namespace
 
 void TrackerParams::ValidateOrThrow() const {
-  if (confirm_frames < 1 || confirm_frames > 1000) {
-    Fail("confirm_frames", confirm_frames, "expected 1..1000");
-  }
-  if (memory_frames < 0 || memory_frames > 100000) {
-    Fail("memory_frames", memory_frames, "expected 0..100000");
-  }
-  if (tentative_memory_frames < 0 || tentative_memory_frames > memory_frames) {
-    Fail("tentative_memory_frames", tentative_memory_frames, "expected 0..memory_frames");
-  }
-  CheckUnit("min_mask_overlap", min_mask_overlap, /*allow_zero=*/false);
-  CheckDistance("max_centroid_step_m", max_centroid_step_m);
-  if (!(std::isfinite(max_size_ratio) && max_size_ratio >= 1.f && max_size_ratio <= 100.f)) {
-    Fail("max_size_ratio", max_size_ratio, "expected in [1, 100]");
-  }
-  CheckDistance("reacquire_distance_m", reacquire_distance_m);
-  CheckUnit("reacquire_min_box_inside", reacquire_min_box_inside, /*allow_zero=*/true);
-  CheckUnit("reference_decay", reference_decay, /*allow_zero=*/true);
-  if (!(std::isfinite(part_min_fraction) && part_min_fraction >= 0.5f &&
-        part_min_fraction <= 1.f)) {
-    Fail("part_min_fraction", part_min_fraction, "expected in [0.5, 1]");
-  }
-  CheckUnit("mask_weight", mask_weight, /*allow_zero=*/true);
-  CheckUnit("lost_score_factor", lost_score_factor, /*allow_zero=*/false);
+  const core::ParamCheck check(kSection);
+  check.InRange("confirm_frames", confirm_frames, 1, 1000);
+  check.InRange("memory_frames", memory_frames, 0, 100000);
+  check.InRange("tentative_memory_frames", tentative_memory_frames, 0, memory_frames);
+  check.Require(min_mask_overlap > 0.f && min_mask_overlap <= 1.f, "min_mask_overlap",
+                min_mask_overlap, "a share in (0, 1]");
+  check.Require(max_centroid_step_m > 0.f && max_centroid_step_m <= 10.f, "max_centroid_step_m",
+                max_centroid_step_m, "a distance in (0, 10] m");
+  check.InRange("max_size_ratio", max_size_ratio, 1.f, 100.f);
+  check.Require(reacquire_distance_m > 0.f && reacquire_distance_m <= 10.f, "reacquire_distance_m",
+                reacquire_distance_m, "a distance in (0, 10] m");
+  check.InRange("reacquire_min_box_inside", reacquire_min_box_inside, 0.f, 1.f);
+  check.InRange("reference_decay", reference_decay, 0.f, 1.f);
+  check.InRange("part_min_fraction", part_min_fraction, 0.5f, 1.f);
+  check.InRange("mask_weight", mask_weight, 0.f, 1.f);
+  check.Require(lost_score_factor > 0.f && lost_score_factor <= 1.f, "lost_score_factor",
+                lost_score_factor, "a factor in (0, 1]");
 }
 
 struct Tracker::Impl {

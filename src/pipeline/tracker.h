@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <string_view>
 #include <vector>
 
 #include "clutterseg/core/types.h"
@@ -13,6 +14,8 @@ namespace clutterseg::pipeline {
 /// `tracker.<field>`). Frame counts are camera frames (frame sequence numbers), so a dropped
 /// frame counts as elapsed. Defaults are for a 30 Hz camera.
 struct TrackerParams {
+  static constexpr std::string_view kSection = "tracker";
+
   /// A new track is confirmed once it has been seen in this many frames (1 = at once). Until
   /// then its objects carry TrackState::kNew; a consumer that publishes confirmed objects
   /// only shows a new object confirm_frames - 1 frames late (67 ms at 30 Hz by default) and

@@ -2,10 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
+#include "clutterseg/core/param_check.h"
 #include "clutterseg/synth/random.h"
 
 namespace clutterseg::synth {
@@ -13,12 +13,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
-
-[[noreturn]] void Invalid(const char* key, double value, const char* want) {
-  std::ostringstream os;
-  os << "sequence params: " << key << " = " << value << " is invalid (" << want << ")";
-  throw std::invalid_argument(os.str());
-}
 
 // The frame of `full` that holds the objects with present[label] set (and no occluder).
 Scene FrameWith(const Scene& full, const std::vector<uint8_t>& present) {
@@ -157,22 +151,16 @@ std::string_view OccluderShapeName(OccluderShape shape) {
 }
 
 void SequenceParams::ValidateOrThrow() const {
-  if (num_frames < 1 || num_frames > 100000)
-    Invalid("num_frames", num_frames, "expected 1..100000");
-  if (num_objects < 0 || num_objects > 64) Invalid("num_objects", num_objects, "expected 0..64");
-  if (step_frames < 1) Invalid("step_frames", step_frames, "expected >= 1");
-  if (!(occluder_radius_m > 0.0 && occluder_radius_m <= 0.5)) {
-    Invalid("occluder_radius_m", occluder_radius_m, "expected in (0, 0.5] m");
-  }
-  if (!(occluder_depth_fraction > 0.0 && occluder_depth_fraction < 1.0)) {
-    Invalid("occluder_depth_fraction", occluder_depth_fraction, "expected in (0, 1)");
-  }
-  if (!(camera_jitter_m >= 0.0 && camera_jitter_m <= 0.1)) {
-    Invalid("camera_jitter_m", camera_jitter_m, "expected in [0, 0.1] m");
-  }
-  if (!(camera_jitter_deg >= 0.0 && camera_jitter_deg <= 5.0)) {
-    Invalid("camera_jitter_deg", camera_jitter_deg, "expected in [0, 5] degrees");
-  }
+  const core::ParamCheck check("sequence");
+  check.InRange("num_frames", num_frames, 1, 100000);
+  check.InRange("num_objects", num_objects, 0, 64);
+  check.AtLeast("step_frames", step_frames, 1);
+  check.Require(occluder_radius_m > 0.0 && occluder_radius_m <= 0.5, "occluder_radius_m",
+                occluder_radius_m, "a radius in (0, 0.5] m");
+  check.Require(occluder_depth_fraction > 0.0 && occluder_depth_fraction < 1.0,
+                "occluder_depth_fraction", occluder_depth_fraction, "a fraction in (0, 1)");
+  check.InRange("camera_jitter_m", camera_jitter_m, 0.0, 0.1, "m");
+  check.InRange("camera_jitter_deg", camera_jitter_deg, 0.0, 5.0, "degrees");
 }
 
 std::vector<Scene> GenerateScenarioSequence(const SceneParams& scene_params,
