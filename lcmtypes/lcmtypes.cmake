@@ -18,9 +18,11 @@ set(CLUTTERSEG_LCM_TYPES
   intrinsics_t
   plane_t
   object_t
+  lost_track_t
   stage_times_t
   objects_t
   label_image_t
+  depth_image_t
   status_t)
 
 set(CLUTTERSEG_LCMTYPES_CPP_DIR "${CMAKE_CURRENT_BINARY_DIR}/cpp" CACHE INTERNAL "")

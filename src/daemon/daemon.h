@@ -77,6 +77,9 @@ class Daemon {
   /// Replaces the segmentation parameters; each lane applies them before its next frame.
   /// @throws std::invalid_argument when `params` are invalid (the old ones stay).
   void UpdateSegmenterParams(const pipeline::SegmenterParams& params);
+  /// Replaces the tracker's parameters before the next frame it tracks; the tracks are kept.
+  /// No effect with tracker.enabled false. @throws std::invalid_argument when invalid.
+  void UpdateTrackerParams(const pipeline::TrackerParams& params);
   /// Waits until every thread has finished (end of stream, max_frames, stop or error) or
   /// `timeout` passes; returns true when finished.
   bool WaitFor(std::chrono::milliseconds timeout);

@@ -81,6 +81,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
             try {
               const DaemonConfig fresh = BuildConfig(cl);
               daemon->UpdateSegmenterParams(fresh.segmenter);
+              daemon->UpdateTrackerParams(fresh.tracker);
               Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
                                        " (applied from the next frame)");
             } catch (const std::exception& e) {
