@@ -29,6 +29,7 @@
 #include "clutterseg/eval/metrics.h"
 #include "clutterseg/eval/report.h"
 #include "clutterseg/io/pcd.h"
+#include "clutterseg/version.h"
 
 namespace fs = std::filesystem;
 
@@ -228,6 +229,7 @@ int Run(int argc, char** argv) {
   app.add_flag("--allow-missing", opt.allow_missing,
                "score a ground-truth file without prediction as an empty prediction");
   app.add_flag("--quiet,-q", opt.quiet, "print only the JSON line on stdout");
+  app.set_version_flag("--version", std::string("clutterseg-eval ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

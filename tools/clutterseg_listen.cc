@@ -19,6 +19,7 @@
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/status_t.hpp"
+#include "clutterseg/version.h"
 
 namespace {
 
@@ -115,6 +116,7 @@ int main(int argc, char** argv) {
   app.add_option("--labels-channel", labels_channel, "label_image_t channel");
   app.add_option("--status-channel", status_channel, "status_t channel");
   app.add_flag("--no-status", listener.quiet_status, "do not print status_t messages");
+  app.set_version_flag("--version", std::string("clutterseg-listen ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

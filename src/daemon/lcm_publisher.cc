@@ -12,7 +12,6 @@ namespace clutterseg::daemon {
 
 void LcmPublisherParams::ValidateOrThrow() const {
   const core::ParamCheck check("lcm");
-  check.NonEmpty("url", url, "an LCM URL such as memq:// or udpm://...");
   check.NonEmpty("objects_channel", objects_channel, "a channel name");
   check.NonEmpty("labels_channel", labels_channel, "a channel name");
   check.NonEmpty("status_channel", status_channel, "a channel name");

@@ -20,11 +20,12 @@ namespace clutterseg::daemon {
 
 /// Where and what the daemon publishes. YAML section `lcm`.
 struct LcmPublisherParams {
-  std::string url{"udpm://239.255.76.67:7667?ttl=0"};  ///< LCM provider URL
-  std::string objects_channel{"CLUTTERSEG_OBJECTS"};   ///< objects_t channel
-  std::string labels_channel{"CLUTTERSEG_LABELS"};     ///< label_image_t channel
-  std::string status_channel{"CLUTTERSEG_STATUS"};     ///< status_t channel
-  bool publish_labels{true};                           ///< publish a label_image_t per frame
+  /// LCM provider URL; empty = $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0.
+  std::string url;
+  std::string objects_channel{"CLUTTERSEG_OBJECTS"};  ///< objects_t channel
+  std::string labels_channel{"CLUTTERSEG_LABELS"};    ///< label_image_t channel
+  std::string status_channel{"CLUTTERSEG_STATUS"};    ///< status_t channel
+  bool publish_labels{true};                          ///< publish a label_image_t per frame
   LabelCompression label_compression{LabelCompression::kRle};
   /// Publish each frame's depth image (depth_image_t, zlib) on depth_channel, so consumers
   /// get geometry without a second camera reader (about 150 kB per 640x480 frame).

@@ -26,6 +26,8 @@
 #include "clutterseg/daemon/lcm_url.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/daemon/source_factory.h"
+#include "clutterseg/daemon/systemd_notify.h"
+#include "clutterseg/version.h"
 
 namespace clutterseg::daemon {
 namespace {
@@ -65,10 +67,44 @@ DaemonConfig BuildConfig(const CommandLine& cl) {
   return c;
 }
 
-// Waits for the daemon while handling signals from `signal_fd`.
-void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
+// Whether the daemon makes progress, for systemd's watchdog: frames are published, or it is
+// legitimately waiting (reconnecting a lost device, at the end of a recording).
+class ProgressWatch {
+ public:
+  explicit ProgressWatch(std::chrono::microseconds period) : period_(period) {}
+  bool Alive(const DaemonStats& s) {
+    const auto now = std::chrono::steady_clock::now();
+    if (s.frames_published != last_published_ || s.device_state != DeviceState::kStreaming) {
+      last_published_ = s.frames_published;
+      last_progress_ = now;
+    }
+    return now - last_progress_ < period_;
+  }
+
+ private:
+  std::chrono::microseconds period_;
+  uint64_t last_published_{~uint64_t{0}};
+  std::chrono::steady_clock::time_point last_progress_{std::chrono::steady_clock::now()};
+};
+
+// Waits for the daemon while handling signals from `signal_fd`, keeping systemd informed.
+void RunUntilDone(const CommandLine& cl, int signal_fd, SystemdNotifier* notifier, Daemon* daemon) {
   bool stopping = false;
+  const auto watchdog = notifier->watchdog_period();
+  ProgressWatch progress(watchdog > std::chrono::microseconds(0) ? watchdog
+                                                                 : std::chrono::seconds(30));
+  auto next_keepalive = std::chrono::steady_clock::now();
   for (;;) {
+    if (notifier->active() && std::chrono::steady_clock::now() >= next_keepalive) {
+      next_keepalive = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+      const DaemonStats s = daemon->stats();
+      // A pipeline that stopped publishing while frames stream gets no keep-alive: systemd
+      // then restarts it (WatchdogSec= of the unit).
+      if (watchdog > std::chrono::microseconds(0) && progress.Alive(s)) notifier->Watchdog();
+      notifier->Status(std::string(ToString(s.device_state)) + ", " +
+                       std::to_string(s.frames_published) + " frames published, " +
+                       std::to_string(s.frames_dropped) + " dropped");
+    }
     pollfd pfd{signal_fd, POLLIN, 0};
     if (poll(&pfd, 1, 20) > 0 && (pfd.revents & POLLIN)) {
       signalfd_siginfo info{};
@@ -93,6 +129,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
         } else if (!stopping) {
           stopping = true;
           Log(LogLevel::kInfo, std::string(strsignal(sig)) + ": stopping");
+          notifier->Stopping(std::string(strsignal(sig)) + ": finishing the frames in flight");
           daemon->RequestStop();
         } else {
           Log(LogLevel::kError, std::string(strsignal(sig)) + " again: exiting at once");
@@ -150,6 +187,7 @@ int Run(int argc, char** argv) {
   app.add_option("--set", cl.sets, "override any config key: --set segmenter.planes.max_planes=4")
       ->type_name("KEY=VALUE");
   app.add_flag("--print-config", cl.print_config, "print the effective configuration and exit");
+  app.set_version_flag("--version", std::string("clutterseg ") + kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -161,7 +199,7 @@ int Run(int argc, char** argv) {
   try {
     cfg = BuildConfig(cl);
   } catch (const ConfigError& e) {
-    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    Log(LogLevel::kError, std::string("configuration: ") + e.what());
     return kExitUsage;
   }
   if (cl.print_config) {
@@ -170,16 +208,17 @@ int Run(int argc, char** argv) {
   }
   SetLogLevel(cfg.log_level);
 
-  if (const std::string why = CheckLcmUrl(cfg.lcm.url); !why.empty()) {
-    std::fprintf(stderr, "clutterseg: configuration error: lcm.url = '%s': %s\n",
-                 cfg.lcm.url.c_str(), why.c_str());
+  const std::string lcm_url = ResolveLcmUrl(cfg.lcm.url);
+  if (const std::string why = CheckLcmUrl(lcm_url); !why.empty()) {
+    Log(LogLevel::kError, "configuration: lcm.url = '" + lcm_url + "'" +
+                              (cfg.lcm.url.empty() ? " (from LCM_DEFAULT_URL)" : "") + ": " + why);
     return kExitUsage;
   }
   std::unique_ptr<LcmBus> bus;
   try {
-    bus = std::make_unique<LcmBus>(cfg.lcm.url);
+    bus = std::make_unique<LcmBus>(lcm_url);
   } catch (const LcmUnavailableError& e) {
-    std::fprintf(stderr, "clutterseg: %s\n", e.what());
+    Log(LogLevel::kError, e.what());
     return kExitLcmUnavailable;
   }
 
@@ -187,40 +226,41 @@ int Run(int argc, char** argv) {
   try {
     source = MakeSource(cfg);
   } catch (const SourceOpenError& e) {
-    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    Log(LogLevel::kError, std::string("cannot open the source: ") + e.what());
     return kExitSourceUnavailable;
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    Log(LogLevel::kError, std::string("configuration: ") + e.what());
     return kExitUsage;
   }
   try {
     InitializeSourceDrivers(cfg);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    Log(LogLevel::kError, std::string("cannot open the source: ") + e.what());
     return kExitSourceUnavailable;
   }
 
   int code = kExitOk;
+  SystemdNotifier notifier;
   {
     std::unique_ptr<Daemon> daemon;
     try {
       daemon = std::make_unique<Daemon>(cfg, std::move(source), bus.get());
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+      Log(LogLevel::kError, std::string("configuration: ") + e.what());
       return kExitUsage;
     }
     try {
       daemon->Start();
     } catch (const SourceOpenError& e) {
-      std::fprintf(stderr, "clutterseg: cannot open the source '%s': %s\n", cfg.source.c_str(),
-                   e.what());
+      Log(LogLevel::kError, "cannot open the source '" + cfg.source + "': " + e.what());
       daemon.reset();
       ShutdownSourceDrivers();
       return kExitSourceUnavailable;
     }
     Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
                              cfg.lcm.objects_channel + ")");
-    RunUntilDone(cl, signal_fd, daemon.get());
+    notifier.Ready("publishing " + daemon->source_description() + " on " + bus->url());
+    RunUntilDone(cl, signal_fd, &notifier, daemon.get());
     daemon->Join();
     code = daemon->exit_code();
     const DaemonStats s = daemon->stats();

@@ -69,6 +69,11 @@ void StatusReporter::Finish() {
   Report();  // the final state: end of stream or error, final counters
 }
 
+std::string StatusReporter::last_line() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_line_;
+}
+
 RunLatency StatusReporter::run_latency() const {
   std::lock_guard<std::mutex> lock(mutex_);
   RunLatency r;
@@ -157,18 +162,18 @@ void StatusReporter::Report() {
   s.last_error = c.last_error;
   publish_(s);
 
-  if (LogEnabled(LogLevel::kInfo)) {
-    std::fprintf(stderr,
-                 "clutterseg: %5.1f fps | segment p50 %6.1f p99 %6.1f ms | capture->publish "
-                 "p50 %6.1f p99 %6.1f ms | objects %d | queue %d/%d | dropped %lld | "
-                 "published %llu | %s%s\n",
-                 fps, seg.p50_ms, seg.p99_ms, c2p.p50_ms, c2p.p99_ms, s.last_num_objects,
-                 s.queue_depth, s.queue_capacity, static_cast<long long>(s.frames_dropped),
-                 static_cast<unsigned long long>(c.frames_published), s.device_state_name.c_str(),
-                 s.publish_failures > 0
-                     ? (" | publish failures " + std::to_string(s.publish_failures)).c_str()
-                     : "");
-  }
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "%5.1f fps | segment p50 %6.1f p99 %6.1f ms | capture->publish p50 %6.1f p99 "
+                "%6.1f ms | objects %d | queue %d/%d | dropped %lld | published %llu | %s%s",
+                fps, seg.p50_ms, seg.p99_ms, c2p.p50_ms, c2p.p99_ms, s.last_num_objects,
+                s.queue_depth, s.queue_capacity, static_cast<long long>(s.frames_dropped),
+                static_cast<unsigned long long>(c.frames_published), s.device_state_name.c_str(),
+                s.publish_failures > 0
+                    ? (" | publish failures " + std::to_string(s.publish_failures)).c_str()
+                    : "");
+  LogStatusLine(line);
+  last_line_ = line;
 }
 
 }  // namespace clutterseg::daemon

@@ -59,7 +59,7 @@ std::string NestedYaml(const std::string& path, const std::string& value) {
 TEST(DaemonConfig, EmptyDocumentGivesDefaults) {
   const DaemonConfig dut = ParseConfig("", "empty.yaml");
   EXPECT_EQ(ConfigToYaml(dut), ConfigToYaml(DaemonConfig{}));
-  EXPECT_EQ(dut.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(dut.lcm.url, "") << "empty: LCM_DEFAULT_URL, else LCM's default";
   EXPECT_EQ(dut.lcm.objects_channel, "CLUTTERSEG_OBJECTS");
   EXPECT_EQ(dut.lcm.labels_channel, "CLUTTERSEG_LABELS");
   EXPECT_EQ(dut.lcm.status_channel, "CLUTTERSEG_STATUS");
