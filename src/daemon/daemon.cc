@@ -75,6 +75,7 @@ struct Daemon::Impl {
   std::unique_ptr<pipeline::TrackerParams> pending_tracker_params;  // applied before a frame
   pipeline::FrameRunner runner;  // last: its lanes use everything above
   std::thread dispatch_thread;
+  bool opened{false};
   bool started{false};
   bool joined{false};
 
@@ -288,15 +289,22 @@ Daemon::~Daemon() {
   }
 }
 
-void Daemon::Start() {
+void Daemon::Open() {
   Impl& d = *impl_;
-  CLUTTERSEG_DEMAND(!d.started);
+  CLUTTERSEG_DEMAND(!d.opened);
   try {
     d.source->Open();
   } catch (const std::exception& e) {
     throw SourceOpenError(e.what());
   }
   d.source_description = d.source->Describe();
+  d.opened = true;
+}
+
+void Daemon::Start() {
+  Impl& d = *impl_;
+  CLUTTERSEG_DEMAND(!d.started);
+  if (!d.opened) Open();
   if (d.overlay) d.overlay->Start();
   d.status = std::make_unique<StatusReporter>(
       d.config.status, d.config.capture.camera_name, d.source_description,

@@ -53,7 +53,7 @@ struct DaemonStats {
 /// A lost device is closed and reopened with exponential backoff. No exception leaves a
 /// thread: errors are recorded, reported in status_t and end the run with exit code 1.
 ///
-/// Thread-safety: Start, WaitFor and Join from the owning thread; RequestStop,
+/// Thread-safety: Open, Start, WaitFor and Join from the owning thread; RequestStop,
 /// UpdateSegmenterParams, stats() and error() from any thread.
 class Daemon {
  public:
@@ -68,7 +68,12 @@ class Daemon {
   /// Requests a stop and joins all threads.
   ~Daemon();
 
-  /// Opens the source on the calling thread, then starts the threads.
+  /// Opens the source on the calling thread (a device or a long recording may take a while);
+  /// no thread runs and nothing is published yet. Optional: Start() opens it otherwise.
+  /// @throws SourceOpenError when the source cannot be opened.
+  void Open();
+  /// Opens the source unless Open() did, then starts the threads. A RequestStop() that came
+  /// after Open() makes the threads finish at once (with a last status_t).
   /// @throws SourceOpenError when the source cannot be opened.
   void Start();
   /// Asks for an orderly stop: capture stops, frames being segmented finish and are

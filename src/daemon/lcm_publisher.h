@@ -33,6 +33,9 @@ struct LcmPublisherParams {
   std::string depth_channel{"CLUTTERSEG_DEPTH"};  ///< depth_image_t channel
   /// Per object, up to this many of its points in object_t.samples (0 = none).
   int object_points{0};
+  /// On a multicast bus (udpm, mpudpm), refuse to start when another daemon publishes the
+  /// same camera_name there (found by listening to status_channel for one status period).
+  bool check_instances{true};
   /// Frames that may wait for a slow transport (a stalled tcpq peer, a slow disk under a
   /// file:// log) before the oldest is dropped and counted.
   int queue_capacity{4};

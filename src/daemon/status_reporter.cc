@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/daemon/instance_watch.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/version.h"
 
@@ -122,6 +123,9 @@ void StatusReporter::Report() {
   s.camera_name = camera_name_;
   s.source = source_;
   s.version = kVersion;
+  s.instance_id = ThisProcess().instance_id;
+  s.hostname = ThisProcess().hostname;
+  s.pid = ThisProcess().pid;
   s.fps = static_cast<float>(fps);
   s.uptime_s = static_cast<float>(std::chrono::duration<double>(now - start_).count());
   s.segment_p50_ms = static_cast<float>(seg.p50_ms);
