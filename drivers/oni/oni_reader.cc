@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -265,10 +266,13 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
               const uint64_t w = ReadLe(value.data(), 4);
               const uint64_t h = ReadLe(value.data() + 4, 4);
               const uint64_t fps = ReadLe(value.data() + 8, 4);
-              if (w == 0 || h == 0 || w > 16384 || h > 16384 || fps > 10000) {
-                throw std::runtime_error(where + ": implausible xnMapOutputMode " +
-                                         std::to_string(w) + "x" + std::to_string(h) + "@" +
-                                         std::to_string(fps));
+              const std::optional<std::string> too_large =
+                  limits.frame.CheckImage(static_cast<int64_t>(w), static_cast<int64_t>(h), 1);
+              if (too_large || fps > 10000) {
+                throw std::runtime_error(
+                    where + ": implausible xnMapOutputMode " + std::to_string(w) + "x" +
+                    std::to_string(h) + "@" + std::to_string(fps) +
+                    (too_large ? " (" + *too_large + ")" : std::string(" (fps above 10000)")));
               }
               n.width = static_cast<int>(w);
               n.height = static_cast<int>(h);
@@ -337,7 +341,8 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
         info.has_end = true;
         break;
       default:
-        break;  // unknown record types are skipped, as OpenNI2 does
+        ++info.unknown_records;  // skipped, as OpenNI2 does
+        break;
     }
     if (info.has_end) break;
     pos += record_size;

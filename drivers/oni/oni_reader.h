@@ -7,17 +7,26 @@
 #include <string>
 #include <vector>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/types.h"
 
 namespace clutterseg::drivers {
 
+/// Largest frame payload OpenNI2's OniFile player buffers (1600x1200 RGB888): OniWriter never
+/// writes larger frames and OniReader refuses them by default.
+inline constexpr uint32_t kOniFileMaxFrameBytes = 1600u * 1200u * 3u;
+
 /// Limits that protect OniReader against hostile files. Every size read from a file is
 /// checked against the file size and these limits before anything is allocated.
 struct OniReadLimits {
-  uint32_t max_fields_bytes{1u << 20};           ///< largest record header + fields
-  uint32_t max_string_bytes{4096};               ///< longest node or property name
-  size_t max_nodes{64};                          ///< most nodes in one file
-  uint32_t max_frame_bytes{1600u * 1200u * 3u};  ///< largest frame payload (OniFile's limit)
+  /// The frame limits every reader and writer shares: the resolution a node declares in
+  /// xnMapOutputMode must fit them as an image (checked with 1 byte per pixel; the payload
+  /// limit below is stricter).
+  core::FrameLimits frame;
+  uint32_t max_fields_bytes{1u << 20};              ///< largest record header + fields
+  uint32_t max_string_bytes{4096};                  ///< longest node or property name
+  size_t max_nodes{64};                             ///< most nodes in one file
+  uint32_t max_frame_bytes{kOniFileMaxFrameBytes};  ///< largest frame payload (OniFile's)
 };
 
 /// One node (stream) declared by NODE_ADDED, with the properties OpenNI2 replays.
@@ -70,6 +79,9 @@ struct OniFileInfo {
   std::vector<OniNodeInfo> nodes;
   std::vector<OniFrameRecord> frames;  ///< in file order, all nodes interleaved
   size_t record_count{0};
+  /// Records of a type this reader (and OpenNI2) does not know, skipped: a damaged file.
+  /// OpenNI2's player also loses the frame record that follows each of them.
+  size_t unknown_records{0};
   bool has_end{false};  ///< an END record was found (a finalized file)
 
   /// The first node of `type` (2 depth, 3 image), or nullptr.

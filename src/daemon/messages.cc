@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/stage_times_t.hpp"
@@ -177,21 +179,31 @@ void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
 }
 
 void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* labels) {
-  if (msg.width < 0 || msg.height < 0 || static_cast<int64_t>(msg.width) * msg.height > (1 << 28)) {
+  // Every size the message declares is checked before anything is allocated: a hostile
+  // message is an error, not an allocation. The image must fit the frame limits of every
+  // reader (core::FrameLimits; 0 x 0 is an empty frame).
+  if (msg.width < 0 || msg.height < 0) {
     throw std::runtime_error("label_image_t: bad size " + std::to_string(msg.width) + "x" +
                              std::to_string(msg.height));
+  }
+  const bool empty = msg.width == 0 || msg.height == 0;
+  if (!empty) {
+    if (const std::optional<std::string> too_large =
+            core::FrameLimits{}.CheckImage(msg.width, msg.height, sizeof(uint32_t))) {
+      throw std::runtime_error("label_image_t: declared size " + *too_large);
+    }
   }
   if (msg.size != static_cast<int32_t>(msg.data.size())) {
     throw std::runtime_error("label_image_t: size field " + std::to_string(msg.size) +
                              " != data length " + std::to_string(msg.data.size()));
   }
-  const size_t n = static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height);
-  labels->Reset(msg.width, msg.height, 0);
+  const size_t n = empty ? 0 : static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height);
   auto from_raw = [&](const uint8_t* raw, size_t bytes) {
     if (bytes != 2 * n) {
       throw std::runtime_error("label_image_t: " + std::to_string(bytes) + " label bytes for " +
                                std::to_string(n) + " pixels");
     }
+    labels->Reset(msg.width, msg.height, 0);
     for (size_t i = 0; i < n; ++i) labels->data[i] = GetU16(raw + 2 * i);
   };
   switch (msg.compression) {
@@ -199,20 +211,34 @@ void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* la
       from_raw(msg.data.data(), msg.data.size());
       return;
     case clutterseg::label_image_t::COMPRESSION_RLE: {
-      if (msg.data.size() % 6 != 0)
+      if (msg.data.size() % 6 != 0) {
         throw std::runtime_error("label_image_t: RLE data is truncated");
+      }
+      // The runs must cover the image exactly (each at least one pixel) before it is filled.
+      uint64_t covered = 0;
+      for (size_t i = 0; i < msg.data.size(); i += 6) {
+        const uint32_t run = GetU32(&msg.data[i + 2]);
+        if (run == 0) throw std::runtime_error("label_image_t: RLE run of length 0");
+        if (run > n - covered) throw std::runtime_error("label_image_t: RLE runs exceed the image");
+        covered += run;
+      }
+      if (covered != n) throw std::runtime_error("label_image_t: RLE runs do not cover the image");
+      labels->Reset(msg.width, msg.height, 0);
       size_t pos = 0;
       for (size_t i = 0; i < msg.data.size(); i += 6) {
         const uint16_t v = GetU16(&msg.data[i]);
         const uint32_t run = GetU32(&msg.data[i + 2]);
-        if (run > n - pos) throw std::runtime_error("label_image_t: RLE runs exceed the image");
         std::fill_n(labels->data.begin() + static_cast<std::ptrdiff_t>(pos), run, uint32_t{v});
         pos += run;
       }
-      if (pos != n) throw std::runtime_error("label_image_t: RLE runs do not cover the image");
       return;
     }
     case clutterseg::label_image_t::COMPRESSION_ZLIB: {
+      // Deflate expands by at most 1032:1: a short stream cannot hold a large image.
+      if (2 * static_cast<uint64_t>(n) > 1032 * static_cast<uint64_t>(msg.data.size()) + 1024) {
+        throw std::runtime_error("label_image_t: " + std::to_string(msg.data.size()) +
+                                 " zlib bytes cannot hold " + std::to_string(n) + " labels");
+      }
       std::vector<uint8_t> raw(2 * n);
       uLongf size = static_cast<uLongf>(raw.size());
       if (uncompress(raw.data(), &size, msg.data.data(), static_cast<uLong>(msg.data.size())) !=
