@@ -88,38 +88,62 @@ class WireCheck {
   std::string problem_;
 };
 
-// Encoded sizes of the fixed-size structs (lcmtypes/clutterseg/*.lcm).
+// The walks below follow lcmtypes/clutterseg/*.lcm field by field; keep them in step with
+// the types (tests/daemon/label_bounds_test.cc publishes every type with all its arrays
+// filled and fails when a walk rejects a well-formed message).
+// Encoded sizes of the fixed-size structs and parts.
 constexpr size_t kIntrinsicsBytes = 4 + 4 + 4 * 8;
 constexpr size_t kPlaneBytes = 4 + 3 * 4 + 4 + 4 + 1;
-constexpr size_t kObjectBytes = 4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 + 3 + 4 + 4 * 4;
+// object_t up to num_samples: geometry, support, colour, confidence, image box, track.
+constexpr size_t kObjectFixedBytes =
+    4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 + 3 + 4 + 4 * 4 + 8 + 4 + 4 + 1 + 1;
+constexpr size_t kLostTrackBytes = 8 + 4 + 4 + 4 + 1 + 4 + 5 * 3 * 4;
+
+// stage_times_t: num_stages, stage_names[], stage_ms[], total_ms.
+bool CheckStageTimes(WireCheck* w) {
+  int32_t n = 0;
+  return w->Count(&n, 5 + 4, "times.num_stages") && w->Strings(n, "times.stage_names") &&
+         w->Skip(static_cast<size_t>(n) * 4 + 4, "times.stage_ms");
+}
 
 std::string CheckObjects(const uint8_t* data, size_t size) {
   WireCheck w(data, size);
   int32_t n = 0;
-  w.Skip(8 + 8, "utime and frame_seq") && w.String("camera_name") &&
+  int32_t objects = 0;
+  if (w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
       w.Skip(kIntrinsicsBytes, "intrinsics") && w.Count(&n, kPlaneBytes, "num_planes") &&
       w.Skip(static_cast<size_t>(n) * kPlaneBytes, "planes") &&
-      w.Count(&n, kObjectBytes, "num_objects") &&
-      w.Skip(static_cast<size_t>(n) * kObjectBytes, "objects") && w.Skip(8, "counts") &&
-      w.Count(&n, 5 + 4, "times.num_stages") && w.Strings(n, "times.stage_names") &&
-      w.Skip(static_cast<size_t>(n) * 4 + 4 + 4 + 4, "times");
+      w.Count(&objects, kObjectFixedBytes + 4, "num_objects")) {
+    for (int32_t i = 0; i < objects; ++i) {
+      if (!w.Skip(kObjectFixedBytes, "object") || !w.Count(&n, 12, "object.num_samples") ||
+          !w.Skip(static_cast<size_t>(n) * 12, "object.samples")) {
+        break;
+      }
+    }
+  }
+  w.Count(&n, kLostTrackBytes, "num_lost_tracks") &&
+      w.Skip(static_cast<size_t>(n) * kLostTrackBytes, "lost_tracks") &&
+      w.Count(&n, 8, "num_ended_tracks") && w.Skip(static_cast<size_t>(n) * 8, "ended_track_ids") &&
+      w.Skip(1 + 4 + 4, "tracks_reset and counts") && CheckStageTimes(&w) &&
+      w.Skip(4 + 4 + 4, "times");
   return w.problem();
 }
 
 std::string CheckLabels(const uint8_t* data, size_t size) {
   WireCheck w(data, size);
   int32_t n = 0;
-  w.Skip(8 + 8, "utime and frame_seq") && w.String("camera_name") && w.Skip(4 + 4 + 1, "size") &&
-      w.Count(&n, 1, "size") && w.Skip(static_cast<size_t>(n), "data");
+  w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
+      w.Skip(4 + 4 + 1, "size") && w.Count(&n, 1, "size") && w.Skip(static_cast<size_t>(n), "data");
   return w.problem();
 }
 
 std::string CheckStatus(const uint8_t* data, size_t size) {
   WireCheck w(data, size);
   int32_t n = 0;
-  w.Skip(8, "utime") && w.String("camera_name") && w.String("source") && w.Skip(8 * 4, "rates") &&
-      w.Count(&n, 5 + 4 + 4, "num_stages") && w.Strings(n, "stage_names") &&
-      w.Skip(static_cast<size_t>(n) * 8 + 4 + 4 + 4 * 8 + 4 + 1, "counters") &&
+  w.Skip(8, "utime") && w.String("camera_name") && w.String("source") && w.String("version") &&
+      w.Skip(8 * 4, "rates") && w.Count(&n, 5 + 4 + 4, "num_stages") &&
+      w.Strings(n, "stage_names") &&
+      w.Skip(static_cast<size_t>(n) * 8 + 4 + 4 + 13 * 8 + 4 + 1, "counters") &&
       w.String("device_state_name") && w.Skip(4, "reconnect_attempts") && w.String("last_error");
   return w.problem();
 }
@@ -194,8 +218,14 @@ struct Listener {
     } else {
       problem = check(data + 8, size - 8);  // after the type hash
     }
-    if (problem.empty() && message->decode(data, 0, static_cast<int>(size)) < 0) {
-      problem = "does not decode as " + std::string(Message::getTypeName());
+    if (problem.empty()) {
+      try {
+        if (message->decode(data, 0, static_cast<int>(size)) < 0) {
+          problem = "does not decode as " + std::string(Message::getTypeName());
+        }
+      } catch (const std::exception& e) {  // lcm-gen's decoders throw on some malformed input
+        problem = std::string("does not decode as ") + Message::getTypeName() + ": " + e.what();
+      }
     }
     if (!problem.empty()) {
       ++rejected;

@@ -7,8 +7,13 @@
 // frame k is written beside it as <out>/frame_<k, 6 digits>.pcd (the replay's frame sequence
 // number), plus the manifest.
 //
+// With --scenario add|remove|add-remove|occluder|static each sequence is one scenario of
+// synth::GenerateScenarioSequence: every physical object keeps its label in every frame (the
+// occluder has a label of its own, in the manifest), so the frames can score tracking.
+//
 // Exit codes: 0 success, 1 I/O failure, 2 bad arguments.
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
@@ -33,6 +38,7 @@
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/scene.h"
 #include "clutterseg/synth/sensor_params.h"
+#include "clutterseg/synth/sequence.h"
 
 #ifdef CLUTTERSEG_SYNTH_WITH_ONI
 #include "clutterseg/drivers/oni/oni_writer.h"
@@ -59,6 +65,12 @@ struct Options {
   int count{1};
   uint64_t seed{1};
   bool sequence{false};
+  std::string scenario;  // empty: no scenario
+  int step_frames{3};
+  std::string occluder{"arm"};
+  double occluder_radius_m{0.04};
+  double camera_jitter_mm{0.0};
+  double camera_jitter_deg{0.0};
   int frames{10};
   std::string objects;
   bool png{false};
@@ -80,6 +92,8 @@ struct FrameRecord {
   uint64_t noise_seed{0};
   std::vector<SceneObject> objects;
   std::vector<int> visible_pixels;  // per object, labelled pixels with valid depth
+  uint32_t occluder_label{0};       // 0: no occluder
+  int occluder_visible_pixels{0};
   std::vector<std::pair<std::string, std::string>> files;  // (key, file name)
 };
 
@@ -236,6 +250,10 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
   os << "{\n  \"generator\": \"clutterseg-synth\",\n";
   os << "  \"seed\": " << opt.seed << ",\n  \"count\": " << opt.count << ",\n";
   os << "  \"sequence\": " << (opt.sequence ? "true" : "false") << ",\n";
+  if (!opt.scenario.empty()) {
+    os << "  \"scenario\": " << JsonString(opt.scenario)
+       << ",\n  \"step_frames\": " << opt.step_frames << ",\n";
+  }
   if (opt.sequence) os << "  \"frames_per_sequence\": " << opt.frames << ",\n";
   os << "  \"noise\": " << (opt.no_noise ? "false" : "true") << ",\n";
   if (!opt.oni_path.empty()) {
@@ -251,7 +269,12 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
     if (rec.frame_index >= 0) os << ", \"frame_index\": " << rec.frame_index;
     if (rec.oni_frame >= 0) os << ", \"oni_frame\": " << rec.oni_frame;
     os << ", \"scene_seed\": " << rec.scene_seed << ", \"noise_seed\": " << rec.noise_seed
-       << ", \"object_count\": " << rec.objects.size() << ",\n     \"files\": {";
+       << ", \"object_count\": " << rec.objects.size();
+    if (rec.occluder_label != 0) {
+      os << ", \"occluder_label\": " << rec.occluder_label
+         << ", \"occluder_visible_pixels\": " << rec.occluder_visible_pixels;
+    }
+    os << ",\n     \"files\": {";
     for (size_t f = 0; f < rec.files.size(); ++f) {
       os << (f == 0 ? "" : ", ") << JsonString(rec.files[f].first) << ": "
          << JsonString(rec.files[f].second);
@@ -286,8 +309,34 @@ int Run(int argc, char** argv) {
   app.add_option("--seed", opt.seed, "random seed; the same seed gives byte-identical files");
   app.add_flag("--sequence", opt.sequence,
                "incremental sequences: frame k holds k objects on the same table");
-  app.add_option("--frames", opt.frames, "frames per sequence (objects = frames - 1)")
-      ->check(CLI::Range(1, 65));
+  app.add_option("--scenario", opt.scenario,
+                 "sequences of one scenario (implies --sequence; objects keep their label in "
+                 "every frame): add (one object added every --step-frames frames to the empty "
+                 "table), remove (all objects, one removed every --step-frames), add-remove "
+                 "(half of them, then one added or removed every --step-frames), occluder (an "
+                 "occluder sweeps across the view once), static (nothing changes but the "
+                 "sensor noise); the scene holds the --objects count (its maximum)")
+      ->check(CLI::IsMember({"add", "remove", "add-remove", "occluder", "static"}));
+  app.add_option("--step-frames", opt.step_frames,
+                 "--scenario add/remove/add-remove: frames between two changes")
+      ->check(CLI::Range(1, 10000));
+  app.add_option("--occluder", opt.occluder,
+                 "--scenario occluder: arm (a cylinder along the image vertical) or box")
+      ->check(CLI::IsMember({"arm", "box"}));
+  app.add_option("--occluder-radius", opt.occluder_radius_m,
+                 "--scenario occluder: arm radius or half the box side, metres")
+      ->check(CLI::Range(0.005, 0.5));
+  app.add_option("--camera-jitter-mm", opt.camera_jitter_mm,
+                 "sequences of a scenario: per-frame camera shake, up to this many mm per axis")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--camera-jitter-deg", opt.camera_jitter_deg,
+                 "sequences of a scenario: per-frame camera turn, up to this many degrees per "
+                 "axis")
+      ->check(CLI::Range(0.0, 5.0));
+  app.add_option("--frames", opt.frames,
+                 "frames per sequence (--sequence: objects = frames - 1, at most 65; "
+                 "--scenario: up to 10000)")
+      ->check(CLI::Range(1, 10000));
   app.add_option("--objects", opt.objects, "object count range MIN:MAX (or N)");
   app.add_flag("--png", opt.png, "also write depth (16-bit mm), colour and label PNGs");
   app.add_flag("--no-noise", opt.no_noise,
@@ -308,6 +357,10 @@ int Run(int argc, char** argv) {
     return code == 0 ? kExitOk : kExitUsage;
   }
 
+  if (!opt.scenario.empty()) opt.sequence = true;
+  if (opt.scenario.empty() && opt.frames > 65) {
+    throw UsageError("--frames: at most 65 with --sequence (no --scenario)");
+  }
   if (opt.out_dir.empty() && opt.oni_path.empty()) {
     throw UsageError("one of --out DIR or --oni FILE is required");
   }
@@ -349,7 +402,18 @@ int Run(int argc, char** argv) {
   for (int s = 0; s < opt.count; ++s) {
     const uint64_t scene_seed = synth::HashCounter(opt.seed, static_cast<uint64_t>(s), 0);
     std::vector<Scene> scenes;
-    if (opt.sequence) {
+    if (!opt.scenario.empty()) {
+      SequenceParams seq;
+      seq.scenario = ParseScenario(opt.scenario);
+      seq.num_frames = opt.frames;
+      seq.num_objects = scene_params.max_objects;
+      seq.step_frames = opt.step_frames;
+      seq.occluder_shape = ParseOccluderShape(opt.occluder);
+      seq.occluder_radius_m = opt.occluder_radius_m;
+      seq.camera_jitter_m = opt.camera_jitter_mm / 1000.0;
+      seq.camera_jitter_deg = opt.camera_jitter_deg;
+      scenes = GenerateScenarioSequence(scene_params, seq, scene_seed);
+    } else if (opt.sequence) {
       scenes = GenerateSequence(scene_params, scene_seed, opt.frames);
     } else {
       scenes.push_back(GenerateScene(scene_params, scene_seed));
@@ -379,10 +443,17 @@ int Run(int argc, char** argv) {
       const double cpu_ms = 1000.0 * static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC;
       render_ms_total += ms;
       ++rendered;
-      rec.visible_pixels.assign(rec.objects.size(), 0);
+      // Labels are stable across a sequence's frames, so a frame may hold a subset of them.
+      rec.occluder_label = scenes[f].occluder_label;
+      uint32_t max_label = rec.occluder_label;
+      for (const SceneObject& o : rec.objects) max_label = std::max(max_label, o.label);
+      std::vector<int> pixels(max_label + 1, 0);
       for (uint32_t l : frame.label.data) {
-        if (l > 0 && l <= rec.objects.size()) ++rec.visible_pixels[l - 1];
+        if (l > 0 && l <= max_label) ++pixels[l];
       }
+      rec.visible_pixels.clear();
+      for (const SceneObject& o : rec.objects) rec.visible_pixels.push_back(pixels[o.label]);
+      if (rec.occluder_label != 0) rec.occluder_visible_pixels = pixels[rec.occluder_label];
       sink->Write(frame, &rec);
       if (opt.verbose) {
         std::fprintf(stderr, "%s: %zu objects, %zu primitives, render %.1f ms (%.1f ms CPU)\n",

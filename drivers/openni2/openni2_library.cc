@@ -96,15 +96,30 @@ std::atomic<const OniApi*> g_loaded{nullptr};  // &g_api once every function is 
 std::string g_library_path;
 bool g_recordings_only = false;
 
-// The build's links to libOpenNI2 and libOniFile alone ("" when the build made none).
+// The directory of the running executable ("" when /proc is not there).
+std::filesystem::path ExecutableDir() {
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::filesystem::path() : exe.parent_path();
+}
+
+// Links to libOpenNI2 and libOniFile alone ("" when there are none): the build tree's for a
+// binary of the build tree, otherwise the installed ones beside the executable's prefix.
 std::string RecordingsOnlyLibrary() {
 #ifdef CLUTTERSEG_OPENNI2_RECORDINGS_DIR
-  const std::filesystem::path dir(CLUTTERSEG_OPENNI2_RECORDINGS_DIR);
-  const std::filesystem::path lib = dir / CLUTTERSEG_OPENNI2_SONAME;
   std::error_code ec;
-  if (std::filesystem::exists(lib, ec) &&
+  const std::filesystem::path exe_dir = ExecutableDir();
+  std::filesystem::path dir;
+  const std::string build_tree = CLUTTERSEG_OPENNI2_BUILD_TREE;
+  if (!exe_dir.empty() && exe_dir.string().rfind(build_tree + "/", 0) == 0) {
+    dir = CLUTTERSEG_OPENNI2_RECORDINGS_DIR;
+  } else if (!exe_dir.empty()) {
+    dir = exe_dir / CLUTTERSEG_OPENNI2_INSTALLED_RECORDINGS_DIR;
+  }
+  const std::filesystem::path lib = dir / CLUTTERSEG_OPENNI2_SONAME;
+  if (!dir.empty() && std::filesystem::exists(lib, ec) &&
       std::filesystem::exists(dir / "OpenNI2" / "Drivers" / "libOniFile.so.0", ec)) {
-    return lib.string();
+    return (dir.lexically_normal() / CLUTTERSEG_OPENNI2_SONAME).string();
   }
 #endif
   return {};

@@ -10,6 +10,12 @@ int64_t SteadyClockMicros() {
       .count();
 }
 
+int64_t SystemClockMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 void StampReplayFrame(uint64_t sequence, int64_t frame_period_us, const std::string& camera_name,
                       RgbdFrame* frame) {
   frame->utime = static_cast<int64_t>(sequence) * frame_period_us;

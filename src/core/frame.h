@@ -17,6 +17,9 @@ struct RgbdFrame {
   int64_t utime{0};          ///< capture time, microseconds (device or file clock)
   uint64_t sequence{0};      ///< frame number from the source, starting at 0
   int64_t receive_utime{0};  ///< steady-clock time the frame entered the process, microseconds
+  /// The same moment on the system clock, microseconds since the epoch: the host time of
+  /// capture that the published messages carry (utime is the source's own clock).
+  int64_t host_utime{0};
   CameraIntrinsics intrinsics;
   DepthImage depth;  ///< millimetres, 0 = invalid
   ColorImage color;  ///< empty when the source has no colour
@@ -29,6 +32,8 @@ struct RgbdFrame {
 
 /// Microseconds on the steady clock (the time base of RgbdFrame::receive_utime).
 int64_t SteadyClockMicros();
+/// Microseconds since the epoch on the system clock (the time base of RgbdFrame::host_utime).
+int64_t SystemClockMicros();
 
 /// Stamps a frame of a recording without its own clock (files, synthetic scenes): frame
 /// number `sequence`, capture time sequence * frame_period_us, received now.

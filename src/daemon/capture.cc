@@ -105,7 +105,10 @@ void Capture::Loop() {
       frame->receive_utime = 0;
       switch (source_->Read(100, frame)) {
         case core::ReadStatus::kOk: {
-          if (frame->receive_utime == 0) frame->receive_utime = core::SteadyClockMicros();
+          const int64_t steady_now = core::SteadyClockMicros();
+          if (frame->receive_utime == 0) frame->receive_utime = steady_now;
+          // The host time of capture: the moment it entered the process, on the system clock.
+          frame->host_utime = core::SystemClockMicros() - (steady_now - frame->receive_utime);
           frame->camera_name = params_.camera_name;
           if (pace) {
             // Replay at the recorded rate: frame time relative to the first frame.

@@ -17,12 +17,15 @@
 #include "clutterseg/daemon/overlay_writer.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/pipeline/tracker.h"
 
 namespace clutterseg::daemon {
 namespace {
 
 // What a lane leaves for the ordered completion: the frame's messages and overlay input.
+// (The frame itself may be back in the queue by then.)
 struct LaneOutput {
+  uint64_t sequence{0};
   FrameMessages messages;
   OverlayFrame overlay;
 };
@@ -52,6 +55,7 @@ struct Daemon::Impl {
             [this](const pipeline::FrameRunner::Lane& lane, uint64_t item,
                    const std::string* error) { Complete(lane, item, error); }) {
     if (config.overlay.enabled()) overlay = std::make_unique<OverlayWriter>(config.overlay);
+    if (config.track_objects) tracker = std::make_unique<pipeline::Tracker>(config.tracker);
   }
 
   const DaemonConfig config;
@@ -64,7 +68,12 @@ struct Daemon::Impl {
   LcmPublisher publisher;
   std::unique_ptr<OverlayWriter> overlay;
   std::unique_ptr<StatusReporter> status;  // made at Start, once the source is described
-  pipeline::FrameRunner runner;            // last: its lanes use everything above
+  // The tracker runs in the ordered completion (one call at a time, in frame order).
+  std::unique_ptr<pipeline::Tracker> tracker;
+  pipeline::TrackingResult tracking;
+  std::mutex tracker_params_mutex;
+  std::unique_ptr<pipeline::TrackerParams> pending_tracker_params;  // applied before a frame
+  pipeline::FrameRunner runner;  // last: its lanes use everything above
   std::thread dispatch_thread;
   bool started{false};
   bool joined{false};
@@ -114,6 +123,7 @@ struct Daemon::Impl {
 
   void Segment(const pipeline::FrameRunner::Lane& lane, const core::RgbdFrame* frame) {
     LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
+    out.sequence = frame->sequence;
     const int64_t start_us = core::SteadyClockMicros();
     pipeline::SegmentationResult& result = *lane.result;
     const bool have_color = !frame->color.empty() && frame->color.width == frame->depth.width &&
@@ -128,17 +138,24 @@ struct Daemon::Impl {
     m.receive_utime = frame->receive_utime;
     m.segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
     FrameInfo info;
-    info.utime = frame->utime;
+    info.utime = frame->host_utime;
+    info.device_utime = frame->utime;
     info.frame_seq = static_cast<int64_t>(frame->sequence);
     info.camera_name = frame->camera_name;
     info.intrinsics = frame->intrinsics;
     ToObjectsMessage(result, info, &m.objects);
     m.objects.queue_ms =
         static_cast<float>(static_cast<double>(start_us - frame->receive_utime) * 1e-3);
+    if (config.lcm.object_points > 0) {
+      SampleObjectPoints(lane.segmenter->working_cloud(), result.labels, config.lcm.object_points,
+                         &m.objects);
+    }
     m.has_labels = config.lcm.publish_labels;
     if (m.has_labels) {
       EncodeLabelImage(result.labels, info, config.lcm.label_compression, &m.labels);
     }
+    m.has_depth = config.lcm.publish_depth && !frame->depth.empty();
+    if (m.has_depth) EncodeDepthImage(frame->depth, info, true, &m.depth);
     if (overlay) {
       out.overlay.sequence = frame->sequence;
       out.overlay.labels = result.labels;
@@ -155,15 +172,35 @@ struct Daemon::Impl {
 
   // ---- ordered completion: frames in capture order to the sinks (FrameRunner::Done) ----
 
-  void Complete(const pipeline::FrameRunner::Lane& lane, uint64_t item, const std::string* error) {
-    const auto* frame = reinterpret_cast<const core::RgbdFrame*>(item);
+  void Complete(const pipeline::FrameRunner::Lane& lane, uint64_t, const std::string* error) {
+    LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
     if (error != nullptr) {
-      Fail("processing frame " + std::to_string(frame->sequence) + " failed: " + *error);
+      Fail("processing frame " + std::to_string(out.sequence) + " failed: " + *error);
       return;
     }
     const int64_t max_frames = config.capture.max_frames;
     if (max_frames > 0 && handed.load() >= static_cast<uint64_t>(max_frames)) return;
-    LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
+    if (tracker) {
+      {
+        std::lock_guard<std::mutex> lock(tracker_params_mutex);
+        if (pending_tracker_params) {
+          tracker->SetParams(*pending_tracker_params);
+          pending_tracker_params.reset();
+        }
+      }
+      tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking);
+      ToTrackMessage(tracking, &out.messages.objects);
+    }
+    if (overlay) {
+      pipeline::OverlayObjectsFrom(lane.result->objects, &out.overlay.objects);
+      if (tracker) {
+        for (pipeline::OverlayObject& o : out.overlay.objects) {  // result.objects[id - 1]
+          if (o.id >= 1 && o.id <= tracking.objects.size()) {
+            o.track_id = tracking.objects[o.id - 1].track_id;
+          }
+        }
+      }
+    }
     last_num_objects.store(out.messages.objects.num_objects);
     publisher.Offer(&out.messages);
     if (overlay) overlay->Offer(&out.overlay);
@@ -220,6 +257,13 @@ struct Daemon::Impl {
     c.frames_processed = processed.load();
     c.frames_published = publisher.frames_published();
     c.frames_dropped = queue->dropped();
+    c.frames_discarded = discarded.load();
+    c.frames_publish_dropped = publisher.frames_dropped();
+    if (overlay) {
+      c.overlays_written = overlay->written();
+      c.overlays_dropped = overlay->dropped();
+      c.overlay_failures = overlay->failures();
+    }
     c.publish_failures = publisher.publish_failures();
     c.reconnect_attempts = capture.reconnect_attempts();
     c.queue_depth = static_cast<int32_t>(queue->size());
@@ -272,6 +316,12 @@ void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
   impl_->reloads.fetch_add(1);
 }
 
+void Daemon::UpdateTrackerParams(const pipeline::TrackerParams& params) {
+  params.ValidateOrThrow();
+  std::lock_guard<std::mutex> lock(impl_->tracker_params_mutex);
+  impl_->pending_tracker_params = std::make_unique<pipeline::TrackerParams>(params);
+}
+
 bool Daemon::WaitFor(std::chrono::milliseconds timeout) {
   if (!impl_->started) return true;
   std::unique_lock<std::mutex> lock(impl_->done_mutex);
@@ -288,7 +338,7 @@ void Daemon::Join() {
 
 int Daemon::exit_code() const {
   std::lock_guard<std::mutex> lock(impl_->error_mutex);
-  return impl_->failed ? kExitRuntimeError : kExitOk;
+  return impl_->failed ? kExitFailure : kExitOk;
 }
 
 std::string Daemon::error() const {

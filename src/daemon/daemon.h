@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "clutterseg/core/exit_codes.h"
 #include "clutterseg/core/frame_source.h"
 #include "clutterseg/daemon/capture.h"
 #include "clutterseg/daemon/daemon_config.h"
@@ -15,15 +16,6 @@
 namespace clutterseg::daemon {
 
 class LcmBus;
-
-/// Process exit codes of `clutterseg`.
-enum ExitCode : int {
-  kExitOk = 0,                 ///< stopped by a signal, --max-frames reached or end of recording
-  kExitRuntimeError = 1,       ///< a source or processing failure while running
-  kExitBadConfig = 2,          ///< bad command line or configuration file
-  kExitSourceUnavailable = 3,  ///< the frame source cannot be opened
-  kExitLcmUnavailable = 4,     ///< the LCM URL cannot be opened (e.g. no multicast route)
-};
 
 /// The frame source could not be opened at start-up.
 class SourceOpenError : public std::runtime_error {
@@ -85,6 +77,9 @@ class Daemon {
   /// Replaces the segmentation parameters; each lane applies them before its next frame.
   /// @throws std::invalid_argument when `params` are invalid (the old ones stay).
   void UpdateSegmenterParams(const pipeline::SegmenterParams& params);
+  /// Replaces the tracker's parameters before the next frame it tracks; the tracks are kept.
+  /// No effect with tracker.enabled false. @throws std::invalid_argument when invalid.
+  void UpdateTrackerParams(const pipeline::TrackerParams& params);
   /// Waits until every thread has finished (end of stream, max_frames, stop or error) or
   /// `timeout` passes; returns true when finished.
   bool WaitFor(std::chrono::milliseconds timeout);

@@ -81,6 +81,9 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeAccessKey<C>(
             "lcm.label_compression", [](auto& c) -> auto& { return c.lcm.label_compression; }),
         MakeKey("lcm.queue_capacity", &C::lcm, &LcmPublisherParams::queue_capacity),
+        MakeKey("lcm.publish_depth", &C::lcm, &LcmPublisherParams::publish_depth),
+        MakeKey("lcm.depth_channel", &C::lcm, &LcmPublisherParams::depth_channel),
+        MakeKey("lcm.object_points", &C::lcm, &LcmPublisherParams::object_points),
         MakeKey("processing.queue_capacity", &C::capture, &CaptureParams::queue_capacity),
         MakeKey("processing.threads", &C::processing, &pipeline::FrameRunnerParams::threads),
         MakeKey("processing.pipeline_depth", &C::processing,
@@ -95,6 +98,23 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("output.queue_capacity", &C::overlay, &OverlayWriterParams::queue_capacity),
     };
     config::AppendNested("segmenter", &C::segmenter, config::SegmenterKeys(), &k);
+    k.push_back(MakeKey("tracker.enabled", &C::track_objects));
+    using T = pipeline::TrackerParams;
+    for (auto key :
+         {MakeKey("tracker.confirm_frames", &C::tracker, &T::confirm_frames),
+          MakeKey("tracker.memory_frames", &C::tracker, &T::memory_frames),
+          MakeKey("tracker.tentative_memory_frames", &C::tracker, &T::tentative_memory_frames),
+          MakeKey("tracker.min_mask_overlap", &C::tracker, &T::min_mask_overlap),
+          MakeKey("tracker.max_centroid_step_m", &C::tracker, &T::max_centroid_step_m),
+          MakeKey("tracker.max_size_ratio", &C::tracker, &T::max_size_ratio),
+          MakeKey("tracker.reacquire_distance_m", &C::tracker, &T::reacquire_distance_m),
+          MakeKey("tracker.reacquire_min_box_inside", &C::tracker, &T::reacquire_min_box_inside),
+          MakeKey("tracker.reference_decay", &C::tracker, &T::reference_decay),
+          MakeKey("tracker.part_min_fraction", &C::tracker, &T::part_min_fraction),
+          MakeKey("tracker.mask_weight", &C::tracker, &T::mask_weight),
+          MakeKey("tracker.lost_score_factor", &C::tracker, &T::lost_score_factor)}) {
+      k.push_back(std::move(key));
+    }
     return config::KeyTable<DaemonConfig>(std::move(k));
   }();
   return kKeys;
@@ -119,6 +139,7 @@ void DaemonConfig::ValidateOrThrow() const {
   status.ValidateOrThrow();
   overlay.ValidateOrThrow();
   segmenter.ValidateOrThrow();
+  tracker.ValidateOrThrow();
 }
 
 DaemonConfig ParseConfig(const std::string& yaml_text, const std::string& origin) {

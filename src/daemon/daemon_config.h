@@ -11,6 +11,7 @@
 #include "clutterseg/daemon/status_reporter.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/segmenter_params.h"
+#include "clutterseg/pipeline/tracker.h"
 
 namespace clutterseg::daemon {
 
@@ -31,9 +32,11 @@ struct DaemonConfig {
   OverlayWriterParams overlay;             ///< output.*
   LogLevel log_level{LogLevel::kInfo};     ///< log.level
   pipeline::SegmenterParams segmenter;     ///< the `segmenter:` section
+  bool track_objects{true};                ///< tracker.enabled: give objects identities
+  pipeline::TrackerParams tracker;         ///< the `tracker:` section
 
   /// @throws std::invalid_argument naming the key and value of the first bad field
-  /// (including the segmenter parameters), in core::ParamCheck's format.
+  /// (including the segmenter and tracker parameters), in core::ParamCheck's format.
   void ValidateOrThrow() const;
 };
 

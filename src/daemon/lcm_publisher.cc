@@ -16,6 +16,8 @@ void LcmPublisherParams::ValidateOrThrow() const {
   check.NonEmpty("objects_channel", objects_channel, "a channel name");
   check.NonEmpty("labels_channel", labels_channel, "a channel name");
   check.NonEmpty("status_channel", status_channel, "a channel name");
+  check.NonEmpty("depth_channel", depth_channel, "a channel name");
+  check.InRange("object_points", object_points, 0, 100000);
   check.InRange("queue_capacity", queue_capacity, 1, 1024);
 }
 
@@ -77,6 +79,7 @@ void LcmPublisher::Loop() {
             static_cast<float>(static_cast<double>(now_us - frame.receive_utime) * 1e-3);
         const bool ok = bus_->PublishMessage(params_.objects_channel, frame.objects);
         if (frame.has_labels) bus_->PublishMessage(params_.labels_channel, frame.labels);
+        if (frame.has_depth) bus_->PublishMessage(params_.depth_channel, frame.depth);
         (ok ? frames_published_ : frames_failed_).fetch_add(1);
         if (on_published_) on_published_(frame, ok);
       } catch (const std::exception& e) {

@@ -11,6 +11,7 @@
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/daemon/sink_queue.h"
+#include "clutterseg/depth_image_t.hpp"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
@@ -25,6 +26,12 @@ struct LcmPublisherParams {
   std::string status_channel{"CLUTTERSEG_STATUS"};     ///< status_t channel
   bool publish_labels{true};                           ///< publish a label_image_t per frame
   LabelCompression label_compression{LabelCompression::kRle};
+  /// Publish each frame's depth image (depth_image_t, zlib) on depth_channel, so consumers
+  /// get geometry without a second camera reader (about 150 kB per 640x480 frame).
+  bool publish_depth{false};
+  std::string depth_channel{"CLUTTERSEG_DEPTH"};  ///< depth_image_t channel
+  /// Per object, up to this many of its points in object_t.samples (0 = none).
+  int object_points{0};
   /// Frames that may wait for a slow transport (a stalled tcpq peer, a slow disk under a
   /// file:// log) before the oldest is dropped and counted.
   int queue_capacity{4};
@@ -37,7 +44,9 @@ struct LcmPublisherParams {
 struct FrameMessages {
   clutterseg::objects_t objects;
   clutterseg::label_image_t labels;
+  clutterseg::depth_image_t depth;
   bool has_labels{false};
+  bool has_depth{false};
   int64_t receive_utime{0};  ///< steady clock, microseconds: when the frame entered the process
   double segment_ms{0.0};    ///< segmentation wall time, for the status report
 };

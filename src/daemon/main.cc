@@ -81,6 +81,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
             try {
               const DaemonConfig fresh = BuildConfig(cl);
               daemon->UpdateSegmenterParams(fresh.segmenter);
+              daemon->UpdateTrackerParams(fresh.tracker);
               Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
                                        " (applied from the next frame)");
             } catch (const std::exception& e) {
@@ -95,7 +96,7 @@ void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
           daemon->RequestStop();
         } else {
           Log(LogLevel::kError, std::string(strsignal(sig)) + " again: exiting at once");
-          std::_Exit(kExitRuntimeError);
+          std::_Exit(kExitFailure);
         }
       }
     }
@@ -123,7 +124,7 @@ int Run(int argc, char** argv) {
   const int signal_fd = signalfd(-1, &mask, SFD_CLOEXEC);
   if (signal_fd < 0) {
     std::perror("clutterseg: signalfd");
-    return kExitRuntimeError;
+    return kExitFailure;
   }
 
   CommandLine cl;
@@ -153,7 +154,7 @@ int Run(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
-    return code == 0 ? kExitOk : kExitBadConfig;
+    return code == 0 ? kExitOk : kExitUsage;
   }
 
   DaemonConfig cfg;
@@ -161,7 +162,7 @@ int Run(int argc, char** argv) {
     cfg = BuildConfig(cl);
   } catch (const ConfigError& e) {
     std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
-    return kExitBadConfig;
+    return kExitUsage;
   }
   if (cl.print_config) {
     std::fputs(ConfigToYaml(cfg).c_str(), stdout);
@@ -172,7 +173,7 @@ int Run(int argc, char** argv) {
   if (const std::string why = CheckLcmUrl(cfg.lcm.url); !why.empty()) {
     std::fprintf(stderr, "clutterseg: configuration error: lcm.url = '%s': %s\n",
                  cfg.lcm.url.c_str(), why.c_str());
-    return kExitBadConfig;
+    return kExitUsage;
   }
   std::unique_ptr<LcmBus> bus;
   try {
@@ -190,7 +191,7 @@ int Run(int argc, char** argv) {
     return kExitSourceUnavailable;
   } catch (const std::invalid_argument& e) {
     std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
-    return kExitBadConfig;
+    return kExitUsage;
   }
   try {
     InitializeSourceDrivers(cfg);
@@ -206,7 +207,7 @@ int Run(int argc, char** argv) {
       daemon = std::make_unique<Daemon>(cfg, std::move(source), bus.get());
     } catch (const std::invalid_argument& e) {
       std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
-      return kExitBadConfig;
+      return kExitUsage;
     }
     try {
       daemon->Start();
@@ -267,6 +268,6 @@ int main(int argc, char** argv) {
     return clutterseg::daemon::Run(argc, argv);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "clutterseg: fatal: %s\n", e.what());
-    return clutterseg::daemon::kExitRuntimeError;
+    return clutterseg::kExitFailure;
   }
 }

@@ -8,8 +8,11 @@
 #include <stdexcept>
 
 #include "clutterseg/core/frame_limits.h"
+#include "clutterseg/depth_image_t.hpp"
+#include "clutterseg/label_image_codec.hpp"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
+#include "clutterseg/pipeline/tracker.h"
 #include "clutterseg/stage_times_t.hpp"
 
 namespace clutterseg::daemon {
@@ -22,22 +25,13 @@ void Copy3(const core::Vec3f& v, float* out) {
   out[2] = v.z;
 }
 
-uint16_t ClampLabel(uint32_t label) {
-  return static_cast<uint16_t>(std::min<uint32_t>(label, 65535u));
-}
-
-void PutU16(uint16_t v, std::vector<uint8_t>* out) {
-  out->push_back(static_cast<uint8_t>(v & 0xff));
-  out->push_back(static_cast<uint8_t>(v >> 8));
-}
-
-void PutU32(uint32_t v, std::vector<uint8_t>* out) {
-  for (int i = 0; i < 4; ++i) out->push_back(static_cast<uint8_t>((v >> (8 * i)) & 0xff));
-}
-
-uint16_t GetU16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
-uint32_t GetU32(const uint8_t* p) {
-  return uint32_t{p[0]} | (uint32_t{p[1]} << 8) | (uint32_t{p[2]} << 16) | (uint32_t{p[3]} << 24);
+void CopyIntrinsics(const core::CameraIntrinsics& k, clutterseg::intrinsics_t* out) {
+  out->width = k.width;
+  out->height = k.height;
+  out->fx = k.fx;
+  out->fy = k.fy;
+  out->cx = k.cx;
+  out->cy = k.cy;
 }
 
 // Thread-local scratch so steady-state encoding does not allocate.
@@ -46,29 +40,15 @@ std::vector<uint8_t>& RawScratch() {
   return raw;
 }
 
-void RawLabels(const core::LabelImage& labels, std::vector<uint8_t>* raw) {
-  raw->resize(labels.data.size() * 2);
-  uint8_t* p = raw->data();
-  for (uint32_t l : labels.data) {
-    const uint16_t v = ClampLabel(l);
-    *p++ = static_cast<uint8_t>(v & 0xff);
-    *p++ = static_cast<uint8_t>(v >> 8);
-  }
-}
-
 }  // namespace
 
 void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInfo& info,
                       clutterseg::objects_t* msg) {
   msg->utime = info.utime;
+  msg->device_utime = info.device_utime;
   msg->frame_seq = info.frame_seq;
   msg->camera_name = info.camera_name;
-  msg->intrinsics.width = info.intrinsics.width;
-  msg->intrinsics.height = info.intrinsics.height;
-  msg->intrinsics.fx = info.intrinsics.fx;
-  msg->intrinsics.fy = info.intrinsics.fy;
-  msg->intrinsics.cx = info.intrinsics.cx;
-  msg->intrinsics.cy = info.intrinsics.cy;
+  CopyIntrinsics(info.intrinsics, &msg->intrinsics);
 
   msg->num_planes = static_cast<int32_t>(result.planes.size());
   msg->planes.resize(result.planes.size());
@@ -104,7 +84,20 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
     out.bbox_min_v = in.pixel_min_v;
     out.bbox_max_u = in.pixel_max_u;
     out.bbox_max_v = in.pixel_max_v;
+    out.track_id = -1;
+    out.track_age_frames = 0;
+    out.track_seen_frames = 0;
+    out.track_state = clutterseg::object_t::TRACK_NEW;
+    out.track_reacquired = false;
+    out.num_samples = 0;
+    out.samples.clear();
   }
+  msg->num_lost_tracks = 0;
+  msg->lost_tracks.clear();
+  msg->num_ended_tracks = 0;
+  msg->ended_track_ids.clear();
+  msg->tracks_reset = false;
+  msg->tracker_ms = 0.f;
 
   msg->num_valid_points = static_cast<int32_t>(result.num_valid_points);
   msg->num_supervoxels = static_cast<int32_t>(result.num_supervoxels);
@@ -138,120 +131,140 @@ const char* ToString(LabelCompression compression) {
 void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
                       LabelCompression compression, clutterseg::label_image_t* msg) {
   msg->utime = info.utime;
+  msg->device_utime = info.device_utime;
   msg->frame_seq = info.frame_seq;
   msg->camera_name = info.camera_name;
-  msg->width = labels.width;
-  msg->height = labels.height;
-  std::vector<uint8_t>& data = msg->data;
-  data.clear();
-  switch (compression) {
-    case LabelCompression::kNone:
-      msg->compression = clutterseg::label_image_t::COMPRESSION_NONE;
-      RawLabels(labels, &data);
-      break;
-    case LabelCompression::kRle: {
-      msg->compression = clutterseg::label_image_t::COMPRESSION_RLE;
-      size_t i = 0;
-      while (i < labels.data.size()) {
-        const uint16_t v = ClampLabel(labels.data[i]);
-        size_t j = i + 1;
-        while (j < labels.data.size() && ClampLabel(labels.data[j]) == v && j - i < UINT32_MAX) ++j;
-        PutU16(v, &data);
-        PutU32(static_cast<uint32_t>(j - i), &data);
-        i = j;
-      }
-      break;
-    }
-    case LabelCompression::kZlib: {
-      msg->compression = clutterseg::label_image_t::COMPRESSION_ZLIB;
-      std::vector<uint8_t>& raw = RawScratch();
-      RawLabels(labels, &raw);
-      uLongf size = compressBound(static_cast<uLong>(raw.size()));
-      data.resize(size);
-      if (compress2(data.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK) {
-        throw std::runtime_error("label image: zlib compress2 failed");
-      }
-      data.resize(size);
-      break;
-    }
+  int8_t code = clutterseg::label_image_t::COMPRESSION_RLE;
+  if (compression == LabelCompression::kNone) code = clutterseg::label_image_t::COMPRESSION_NONE;
+  if (compression == LabelCompression::kZlib) code = clutterseg::label_image_t::COMPRESSION_ZLIB;
+  std::string error;
+  if (!clutterseg::EncodeLabelImage(labels.data.data(), labels.width, labels.height, code, msg,
+                                    &RawScratch(), &error)) {
+    throw std::runtime_error(error);
   }
-  msg->size = static_cast<int32_t>(data.size());
 }
 
 void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* labels) {
-  // Every size the message declares is checked before anything is allocated: a hostile
-  // message is an error, not an allocation. The image must fit the frame limits of every
-  // reader (core::FrameLimits; 0 x 0 is an empty frame).
-  if (msg.width < 0 || msg.height < 0) {
-    throw std::runtime_error("label_image_t: bad size " + std::to_string(msg.width) + "x" +
-                             std::to_string(msg.height));
-  }
-  const bool empty = msg.width == 0 || msg.height == 0;
-  if (!empty) {
+  // The frame limits of every reader (core::FrameLimits), checked before anything is
+  // allocated: a hostile message is an error, not an allocation (the codec checks the rest).
+  if (msg.width > 0 && msg.height > 0) {
     if (const std::optional<std::string> too_large =
             core::FrameLimits{}.CheckImage(msg.width, msg.height, sizeof(uint32_t))) {
+      labels->Reset(0, 0);
       throw std::runtime_error("label_image_t: declared size " + *too_large);
     }
-  }
-  if (msg.size != static_cast<int32_t>(msg.data.size())) {
-    throw std::runtime_error("label_image_t: size field " + std::to_string(msg.size) +
-                             " != data length " + std::to_string(msg.data.size()));
-  }
-  const size_t n = empty ? 0 : static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height);
-  auto from_raw = [&](const uint8_t* raw, size_t bytes) {
-    if (bytes != 2 * n) {
-      throw std::runtime_error("label_image_t: " + std::to_string(bytes) + " label bytes for " +
-                               std::to_string(n) + " pixels");
+    // Deflate expands by at most 1032:1: a short stream cannot hold a large image.
+    const uint64_t raw_bytes =
+        2 * static_cast<uint64_t>(msg.width) * static_cast<uint64_t>(msg.height);
+    if (msg.compression == clutterseg::label_image_t::COMPRESSION_ZLIB &&
+        raw_bytes > 1032 * static_cast<uint64_t>(msg.data.size()) + 1024) {
+      labels->Reset(0, 0);
+      throw std::runtime_error("label_image_t: " + std::to_string(msg.data.size()) +
+                               " zlib bytes cannot hold " + std::to_string(raw_bytes / 2) +
+                               " labels");
     }
-    labels->Reset(msg.width, msg.height, 0);
-    for (size_t i = 0; i < n; ++i) labels->data[i] = GetU16(raw + 2 * i);
-  };
-  switch (msg.compression) {
-    case clutterseg::label_image_t::COMPRESSION_NONE:
-      from_raw(msg.data.data(), msg.data.size());
-      return;
-    case clutterseg::label_image_t::COMPRESSION_RLE: {
-      if (msg.data.size() % 6 != 0) {
-        throw std::runtime_error("label_image_t: RLE data is truncated");
-      }
-      // The runs must cover the image exactly (each at least one pixel) before it is filled.
-      uint64_t covered = 0;
-      for (size_t i = 0; i < msg.data.size(); i += 6) {
-        const uint32_t run = GetU32(&msg.data[i + 2]);
-        if (run == 0) throw std::runtime_error("label_image_t: RLE run of length 0");
-        if (run > n - covered) throw std::runtime_error("label_image_t: RLE runs exceed the image");
-        covered += run;
-      }
-      if (covered != n) throw std::runtime_error("label_image_t: RLE runs do not cover the image");
-      labels->Reset(msg.width, msg.height, 0);
-      size_t pos = 0;
-      for (size_t i = 0; i < msg.data.size(); i += 6) {
-        const uint16_t v = GetU16(&msg.data[i]);
-        const uint32_t run = GetU32(&msg.data[i + 2]);
-        std::fill_n(labels->data.begin() + static_cast<std::ptrdiff_t>(pos), run, uint32_t{v});
-        pos += run;
-      }
-      return;
-    }
-    case clutterseg::label_image_t::COMPRESSION_ZLIB: {
-      // Deflate expands by at most 1032:1: a short stream cannot hold a large image.
-      if (2 * static_cast<uint64_t>(n) > 1032 * static_cast<uint64_t>(msg.data.size()) + 1024) {
-        throw std::runtime_error("label_image_t: " + std::to_string(msg.data.size()) +
-                                 " zlib bytes cannot hold " + std::to_string(n) + " labels");
-      }
-      std::vector<uint8_t> raw(2 * n);
-      uLongf size = static_cast<uLongf>(raw.size());
-      if (uncompress(raw.data(), &size, msg.data.data(), static_cast<uLong>(msg.data.size())) !=
-          Z_OK) {
-        throw std::runtime_error("label_image_t: corrupt zlib data");
-      }
-      from_raw(raw.data(), size);
-      return;
-    }
-    default:
-      throw std::runtime_error("label_image_t: unknown compression " +
-                               std::to_string(static_cast<int>(msg.compression)));
   }
+  std::string error;
+  if (!clutterseg::DecodeLabelImage(msg, &labels->data, &error)) {
+    labels->Reset(0, 0);
+    throw std::runtime_error(error);
+  }
+  labels->width = msg.width;
+  labels->height = msg.height;
+}
+
+void ToTrackMessage(const pipeline::TrackingResult& tracking, clutterseg::objects_t* msg) {
+  const size_t n = std::min(tracking.objects.size(), msg->objects.size());
+  for (size_t i = 0; i < n; ++i) {
+    const pipeline::ObjectTrack& t = tracking.objects[i];
+    clutterseg::object_t& o = msg->objects[i];
+    o.track_id = t.track_id;
+    o.track_age_frames = t.age_frames;
+    o.track_seen_frames = t.seen_frames;
+    o.track_state = t.state == pipeline::TrackState::kConfirmed
+                        ? clutterseg::object_t::TRACK_CONFIRMED
+                        : clutterseg::object_t::TRACK_NEW;
+    o.track_reacquired = t.reacquired;
+  }
+  msg->num_lost_tracks = static_cast<int32_t>(tracking.lost.size());
+  msg->lost_tracks.resize(tracking.lost.size());
+  for (size_t i = 0; i < tracking.lost.size(); ++i) {
+    const pipeline::LostTrack& in = tracking.lost[i];
+    clutterseg::lost_track_t& out = msg->lost_tracks[i];
+    out.track_id = in.track_id;
+    out.frames_since_seen = in.frames_since_seen;
+    out.track_age_frames = in.age_frames;
+    out.track_seen_frames = in.seen_frames;
+    out.was_confirmed = in.was_confirmed;
+    out.num_points = static_cast<int32_t>(in.num_points);
+    Copy3(in.centroid, out.centroid);
+    Copy3(in.aabb_min, out.aabb_min);
+    Copy3(in.aabb_max, out.aabb_max);
+    Copy3(in.remembered_min, out.remembered_min);
+    Copy3(in.remembered_max, out.remembered_max);
+  }
+  msg->num_ended_tracks = static_cast<int32_t>(tracking.ended_track_ids.size());
+  msg->ended_track_ids.assign(tracking.ended_track_ids.begin(), tracking.ended_track_ids.end());
+  msg->tracks_reset = tracking.reset;
+  msg->tracker_ms = static_cast<float>(tracking.time_ms);
+}
+
+void SampleObjectPoints(const core::PointCloud& cloud, const core::LabelImage& labels,
+                        int max_per_object, clutterseg::objects_t* msg) {
+  const size_t num_objects = msg->objects.size();
+  for (clutterseg::object_t& o : msg->objects) {
+    o.num_samples = 0;
+    o.samples.clear();
+  }
+  if (max_per_object <= 0 || num_objects == 0 || cloud.xyz.size() != labels.data.size()) return;
+  // Every stride-th point of an object, so that its samples spread over the whole object.
+  thread_local std::vector<uint32_t> seen;
+  seen.assign(num_objects, 0);
+  for (clutterseg::object_t& o : msg->objects)
+    o.samples.reserve(static_cast<size_t>(max_per_object));
+  for (size_t i = 0; i < labels.data.size(); ++i) {
+    const uint32_t l = labels.data[i];
+    if (l == 0 || l > num_objects) continue;
+    clutterseg::object_t& o = msg->objects[l - 1];
+    const auto points = static_cast<uint32_t>(std::max(o.num_points, 1));
+    const uint32_t stride = (points + static_cast<uint32_t>(max_per_object) - 1) /
+                            static_cast<uint32_t>(max_per_object);
+    const core::Vec3f& p = cloud.xyz[i];
+    if (seen[l - 1]++ % stride != 0 || o.num_samples >= max_per_object || !core::IsValid(p)) {
+      continue;
+    }
+    o.samples.push_back({p.x, p.y, p.z});
+    ++o.num_samples;
+  }
+}
+
+void EncodeDepthImage(const core::DepthImage& depth, const FrameInfo& info, bool compress,
+                      clutterseg::depth_image_t* msg) {
+  msg->utime = info.utime;
+  msg->device_utime = info.device_utime;
+  msg->frame_seq = info.frame_seq;
+  msg->camera_name = info.camera_name;
+  CopyIntrinsics(info.intrinsics, &msg->intrinsics);
+  msg->width = depth.width;
+  msg->height = depth.height;
+  std::vector<uint8_t>& raw = compress ? RawScratch() : msg->data;
+  raw.resize(depth.data.size() * 2);
+  for (size_t i = 0; i < depth.data.size(); ++i) {
+    raw[2 * i] = static_cast<uint8_t>(depth.data[i] & 0xff);
+    raw[2 * i + 1] = static_cast<uint8_t>(depth.data[i] >> 8);
+  }
+  if (compress) {
+    msg->compression = clutterseg::depth_image_t::COMPRESSION_ZLIB;
+    uLongf size = compressBound(static_cast<uLong>(raw.size()));
+    msg->data.resize(size);
+    if (compress2(msg->data.data(), &size, raw.data(), static_cast<uLong>(raw.size()), 1) != Z_OK) {
+      throw std::runtime_error("depth image: zlib compress2 failed");
+    }
+    msg->data.resize(size);
+  } else {
+    msg->compression = clutterseg::depth_image_t::COMPRESSION_NONE;
+  }
+  msg->size = static_cast<int32_t>(msg->data.size());
 }
 
 }  // namespace clutterseg::daemon

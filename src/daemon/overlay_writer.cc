@@ -61,7 +61,8 @@ void OverlayWriter::Loop() {
                   static_cast<unsigned long long>(frame.sequence));
     const std::string path = params_.png_dir + name;
     try {
-      pipeline::RenderOverlay(frame.labels, frame.base.empty() ? nullptr : &frame.base, &image);
+      pipeline::RenderOverlay(frame.labels, frame.base.empty() ? nullptr : &frame.base,
+                              frame.objects, &image);
       io::WriteColorPng(path, image);
       written_.fetch_add(1);
     } catch (const std::exception& e) {

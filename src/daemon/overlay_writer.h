@@ -8,6 +8,7 @@
 
 #include "clutterseg/core/types.h"
 #include "clutterseg/daemon/sink_queue.h"
+#include "clutterseg/pipeline/overlay.h"
 
 namespace clutterseg::daemon {
 
@@ -21,15 +22,18 @@ struct OverlayWriterParams {
   void ValidateOrThrow() const;
 };
 
-/// One frame for the overlay writer: its labels and the image to draw them on (the frame's
-/// colour image as it is, or its depth shaded grey).
+/// One frame for the overlay writer: its labels, the image to draw them on (the frame's
+/// colour image as it is, or its depth shaded grey) and its objects (id, track id, image box)
+/// for the boxes, tags and legend.
 struct OverlayFrame {
   uint64_t sequence{0};
   core::LabelImage labels;
   core::ColorImage base;
+  std::vector<pipeline::OverlayObject> objects;
 };
 
-/// The overlay sink: renders each frame's labels over its image and writes
+/// The overlay sink: renders each frame's labels over its image, with each object's box, id
+/// and track id and a legend (pipeline::RenderOverlay), and writes
 /// `<png_dir>/frame_<sequence, 6 digits>.png` on its own thread, behind a bounded
 /// drop-oldest queue, so a slow or full disk costs overlays (counted), never segmentation or
 /// publishing. A failed write is counted and logged, and the writer goes on.

@@ -6,6 +6,7 @@
 
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/version.h"
 
 namespace clutterseg::daemon {
 namespace {
@@ -115,6 +116,7 @@ void StatusReporter::Report() {
   s.utime = WallMicros();
   s.camera_name = camera_name_;
   s.source = source_;
+  s.version = kVersion;
   s.fps = static_cast<float>(fps);
   s.uptime_s = static_cast<float>(std::chrono::duration<double>(now - start_).count());
   s.segment_p50_ms = static_cast<float>(seg.p50_ms);
@@ -138,6 +140,15 @@ void StatusReporter::Report() {
   s.frames_captured = static_cast<int64_t>(c.frames_captured);
   s.frames_processed = static_cast<int64_t>(c.frames_processed);
   s.frames_dropped = static_cast<int64_t>(c.frames_dropped);
+  s.frames_published = static_cast<int64_t>(c.frames_published);
+  s.frames_discarded = static_cast<int64_t>(c.frames_discarded);
+  s.frames_publish_dropped = static_cast<int64_t>(c.frames_publish_dropped);
+  s.frames_not_delivered = static_cast<int64_t>(c.frames_not_delivered);
+  s.frames_expected = c.frames_expected;
+  s.frames_capped = static_cast<int64_t>(c.frames_capped);
+  s.overlays_written = static_cast<int64_t>(c.overlays_written);
+  s.overlays_dropped = static_cast<int64_t>(c.overlays_dropped);
+  s.overlay_failures = static_cast<int64_t>(c.overlay_failures);
   s.publish_failures = static_cast<int64_t>(c.publish_failures);
   s.last_num_objects = c.last_num_objects;
   s.device_state = static_cast<int8_t>(c.device_state);

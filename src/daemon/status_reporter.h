@@ -29,8 +29,16 @@ struct StatusReporterParams {
 struct StatusCounters {
   uint64_t frames_captured{0};
   uint64_t frames_processed{0};
-  uint64_t frames_published{0};  ///< objects_t accepted by the transport
-  uint64_t frames_dropped{0};    ///< by the frame queue (oldest first)
+  uint64_t frames_published{0};        ///< objects_t accepted by the transport
+  uint64_t frames_dropped{0};          ///< by the frame queue (oldest first)
+  uint64_t frames_discarded{0};        ///< waiting frames not segmented because of a stop
+  uint64_t frames_publish_dropped{0};  ///< in front of a transport that fell behind
+  uint64_t frames_not_delivered{0};    ///< the source could not deliver them
+  int64_t frames_expected{-1};         ///< frames the recording holds, -1 when unknown
+  uint64_t frames_capped{0};           ///< reached the segmenter's caps
+  uint64_t overlays_written{0};
+  uint64_t overlays_dropped{0};
+  uint64_t overlay_failures{0};
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
   int32_t queue_depth{0};

@@ -99,7 +99,12 @@ struct SceneObject {
 /// A labelled tabletop scene: analytic primitives and a camera.
 struct Scene {
   std::vector<Primitive> primitives;  ///< background first, then objects in label order
-  std::vector<SceneObject> objects;   ///< objects[i].label == i + 1
+  /// By increasing label; objects[i].label == i + 1 in a scene from GenerateScene. Frames of a
+  /// sequence keep every object's label, so a frame may hold a subset of them.
+  std::vector<SceneObject> objects;
+  /// Label of a moving occluder's primitives (GenerateScenarioSequence), 0 when there is none.
+  /// It is not in `objects`.
+  uint32_t occluder_label{0};
   /// World-from-camera pose; camera frame x right, y down, z forward (optical axis).
   Pose camera_pose;
   double table_top_z_m{0.0};

@@ -122,19 +122,19 @@ TEST(DaemonProcessConfig, BadConfigExitsTwoNamingTheKey) {
   std::ofstream(path) << "lcm:\n  url: memq://\nsegmenter:\n  planes:\n    max_plane: 3\n";
   std::string err;
   EXPECT_EQ(testutil::Run({CLUTTERSEG_DAEMON_EXE, "--config", path.string()}, seconds(60), &err),
-            kExitBadConfig);
+            kExitUsage);
   EXPECT_NE(err.find("segmenter.planes.max_plane"), std::string::npos) << err;
   EXPECT_NE(err.find(path.string()), std::string::npos) << err;
 
   err.clear();
   EXPECT_EQ(testutil::Run({CLUTTERSEG_DAEMON_EXE, "--speed", "warp"}, seconds(60), &err),
-            kExitBadConfig);
+            kExitUsage);
   EXPECT_NE(err.find("speed"), std::string::npos) << err;
   EXPECT_NE(err.find("warp"), std::string::npos) << err;
 
   err.clear();
   EXPECT_EQ(testutil::Run({CLUTTERSEG_DAEMON_EXE, "--no-such-flag"}, seconds(60), &err),
-            kExitBadConfig);
+            kExitUsage);
 }
 
 TEST(DaemonProcessConfig, MissingSourceExitsThree) {

@@ -247,7 +247,7 @@ TEST(DaemonScripted, SourceErrorEndsTheRunWithExitCodeOne) {
   DaemonConfig c = MemqConfig();
   c.lcm.publish_labels = false;
   const RunResult run = RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s));
-  EXPECT_EQ(run.exit_code, kExitRuntimeError);
+  EXPECT_EQ(run.exit_code, kExitFailure);
   EXPECT_NE(run.error.find("scripted sensor fault"), std::string::npos) << run.error;
   ASSERT_FALSE(run.got.status.empty());
   EXPECT_EQ(run.got.status.back().device_state, clutterseg::status_t::DEVICE_ERROR);

@@ -31,7 +31,7 @@ T RoundTrip(const T& in) {
 }
 
 clutterseg::object_t SampleObject(int id) {
-  clutterseg::object_t o;
+  clutterseg::object_t o{};
   o.id = id;
   o.num_points = 1000 + id;
   for (int i = 0; i < 3; ++i) {
@@ -49,6 +49,10 @@ clutterseg::object_t SampleObject(int id) {
   o.bbox_min_v = 20;
   o.bbox_max_u = 30 + id;
   o.bbox_max_v = 40;
+  o.track_id = 1000 + id;
+  o.track_state = clutterseg::object_t::TRACK_CONFIRMED;
+  o.num_samples = 2;
+  o.samples = {{0.1f, 0.2f, 0.9f}, {0.15f, 0.25f, 0.95f}};
   return o;
 }
 
@@ -114,6 +118,11 @@ TEST(LcmTypes, ObjectsRoundTrip) {
   m.planes[1].id = 9;
   m.num_objects = 3;
   m.objects = {SampleObject(1), SampleObject(2), SampleObject(3)};
+  m.num_lost_tracks = 1;
+  m.lost_tracks.resize(1);
+  m.lost_tracks[0].track_id = 7;
+  m.num_ended_tracks = 2;
+  m.ended_track_ids = {5, 6};
   m.num_valid_points = 250000;
   m.num_supervoxels = 800;
   m.times.total_ms = 30.f;
@@ -127,6 +136,12 @@ TEST(LcmTypes, ObjectsRoundTrip) {
   EXPECT_EQ(m2.planes[1].id, 9);
   ASSERT_EQ(m2.objects.size(), 3u);
   EXPECT_EQ(m2.objects[2].id, 3);
+  EXPECT_EQ(m2.objects[2].track_id, 1003);
+  ASSERT_EQ(m2.objects[2].num_samples, 2);
+  EXPECT_EQ(m2.objects[2].samples[1][2], 0.95f);
+  ASSERT_EQ(m2.num_lost_tracks, 1);
+  EXPECT_EQ(m2.lost_tracks[0].track_id, 7);
+  ASSERT_EQ(m2.ended_track_ids, (std::vector<int64_t>{5, 6}));
   EXPECT_EQ(m2.num_supervoxels, 800);
   EXPECT_EQ(m2.capture_to_publish_ms, 35.f);
 }

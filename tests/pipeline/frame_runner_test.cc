@@ -140,6 +140,8 @@ TEST(FrameRunner, UpdateParamsValidatesAndReachesEveryLane) {
   auto work = [&](const FrameRunner::Lane& lane, uint64_t) {
     seen[static_cast<size_t>(lane.index)] =
         lane.segmenter->params().linkage.concavity_tolerance_deg;
+    // Long enough that the next item finds this lane busy and takes the other one.
+    std::this_thread::sleep_for(milliseconds(20));
   };
   FrameRunner dut(SegmenterParams{}, Params(2, 1, DispatchPolicy::kThroughput), work,
                   [](const FrameRunner::Lane&, uint64_t, const std::string*) {});

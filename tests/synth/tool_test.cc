@@ -90,6 +90,41 @@ TEST(SynthTool, SequenceAndResolution) {
   }
 }
 
+TEST(SynthTool, ScenarioFramesKeepEveryObjectsLabel) {
+  const fs::path dir = testing::ScratchDir("synth_tool_scenario");
+  ASSERT_EQ(RunTool("--out " + dir.string() +
+                    " --scenario remove --frames 6 --step-frames 2 --objects 4 --seed 3 "
+                    "--width 320 --height 240"),
+            0);
+  std::vector<std::set<uint32_t>> labels;
+  for (int k = 0; k < 6; ++k) {
+    const fs::path p = dir / ("scene_0000_frame_000" + std::to_string(k) + ".pcd");
+    ASSERT_TRUE(fs::exists(p)) << p;
+    const core::PointCloud cloud = io::ReadPcd(p.string());
+    std::set<uint32_t> l(cloud.label.begin(), cloud.label.end());
+    l.erase(0);
+    labels.push_back(l);
+  }
+  // One object leaves every second frame; the others keep their labels.
+  EXPECT_EQ(labels[0].size(), 4u);
+  for (int k = 1; k < 6; ++k) {
+    EXPECT_TRUE(std::includes(labels[k - 1].begin(), labels[k - 1].end(), labels[k].begin(),
+                              labels[k].end()))
+        << "frame " << k;
+    EXPECT_EQ(labels[k].size(), 4u - static_cast<size_t>(k / 2)) << "frame " << k;
+  }
+  const std::string manifest = ReadAll(dir / "scenes.json");
+  EXPECT_NE(manifest.find("\"scenario\": \"remove\""), std::string::npos);
+  EXPECT_NE(manifest.find("\"frame_index\": 5"), std::string::npos);
+
+  const fs::path occ = testing::ScratchDir("synth_tool_occluder");
+  ASSERT_EQ(RunTool("--out " + occ.string() +
+                    " --scenario occluder --occluder box --frames 5 --objects 3 --seed 3 "
+                    "--width 320 --height 240"),
+            0);
+  EXPECT_NE(ReadAll(occ / "scenes.json").find("\"occluder_label\": "), std::string::npos);
+}
+
 TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {
   const fs::path dir = testing::ScratchDir("synth_tool_bad");
   const std::string out = " --out " + dir.string();
@@ -100,6 +135,9 @@ TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {
   EXPECT_EQ(RunTool(out + " --width 3"), 2);
   EXPECT_EQ(RunTool(out + " --noise-correlation -1"), 2);
   EXPECT_EQ(RunTool(out + " --no-such-option"), 2);
+  EXPECT_EQ(RunTool(out + " --scenario shuffle"), 2);
+  EXPECT_EQ(RunTool(out + " --sequence --frames 100"), 2);  // 65 at most without --scenario
+  EXPECT_EQ(RunTool(out + " --scenario occluder --occluder hand"), 2);
   EXPECT_EQ(RunTool("--help"), 0);
   // The output path is an existing regular file.
   const fs::path file = dir / "not_a_dir";

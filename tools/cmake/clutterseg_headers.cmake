@@ -10,9 +10,13 @@
 include_guard(GLOBAL)
 include(GNUInstallDirs)
 
-# clutterseg_public_headers(<target> <subdir>)   e.g. (clutterseg_core core),
-# (clutterseg_driver_oni drivers/oni). Call from the module's own CMakeLists.txt.
+# clutterseg_public_headers(<target> <subdir> [NO_INSTALL])   e.g. (clutterseg_core core),
+# (clutterseg_oni drivers/oni). Call from the module's own CMakeLists.txt. Unless
+# NO_INSTALL, the library and its public headers (not internal/) are installed (component
+# dev) and the target joins the exported package `clutterseg::` as clutterseg::<name>, its
+# name without the clutterseg_ prefix.
 function(clutterseg_public_headers target subdir)
+  cmake_parse_arguments(ARG "NO_INSTALL" "" "" ${ARGN})
   set(root "${PROJECT_BINARY_DIR}/include/${target}")
   set(link "${root}/clutterseg/${subdir}")
   get_filename_component(parent "${link}" DIRECTORY)
@@ -22,11 +26,22 @@ function(clutterseg_public_headers target subdir)
   endif()
   get_target_property(type ${target} TYPE)
   if(type STREQUAL "INTERFACE_LIBRARY")
-    target_include_directories(${target} INTERFACE "$<BUILD_INTERFACE:${root}>"
-                               "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
+    set(scope INTERFACE)
   else()
-    target_include_directories(${target} PUBLIC "$<BUILD_INTERFACE:${root}>"
-                               "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
+    set(scope PUBLIC)
   endif()
-  set_property(TARGET ${target} PROPERTY CLUTTERSEG_HEADER_SUBDIR "${subdir}")
+  target_include_directories(${target} ${scope} "$<BUILD_INTERFACE:${root}>"
+                             "$<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>")
+  if(ARG_NO_INSTALL)
+    return()
+  endif()
+  string(REGEX REPLACE "^clutterseg_" "" export_name "${target}")
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${export_name})
+  install(TARGETS ${target} EXPORT clutterseg-targets
+          ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
+  install(DIRECTORY "${CMAKE_CURRENT_SOURCE_DIR}/"
+          DESTINATION "${CMAKE_INSTALL_INCLUDEDIR}/clutterseg/${subdir}" COMPONENT dev
+          FILES_MATCHING PATTERN "*.h"
+          PATTERN "internal" EXCLUDE)
+  set_property(GLOBAL APPEND PROPERTY CLUTTERSEG_INSTALLED_LIBRARIES ${export_name})
 endfunction()

@@ -1,0 +1,180 @@
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string_view>
+#include <vector>
+
+#include "clutterseg/core/types.h"
+#include "clutterseg/pipeline/segmentation_result.h"
+
+namespace clutterseg::pipeline {
+
+/// Parameters of the Tracker (configuration section `tracker:`; every key is named
+/// `tracker.<field>`). Frame counts are camera frames (frame sequence numbers), so a dropped
+/// frame counts as elapsed. Defaults are for a 30 Hz camera.
+struct TrackerParams {
+  static constexpr std::string_view kSection = "tracker";
+
+  /// A new track is confirmed once it has been seen in this many frames (1 = at once). Until
+  /// then its objects carry TrackState::kNew; a consumer that publishes confirmed objects
+  /// only shows a new object confirm_frames - 1 frames late (67 ms at 30 Hz by default) and
+  /// never shows one that lives shorter than that.
+  int confirm_frames{3};
+  /// A confirmed track that is no longer seen is remembered (TrackingResult::lost) for this
+  /// many frames after the last frame it was seen in, then ended. When an object reappears
+  /// near its remembered box within that time it gets the track's id back.
+  int memory_frames{60};
+  /// The same for a track that was not yet confirmed (0 = it ends in the first frame it is
+  /// not seen in, so a short-lived spurious object leaves no memory behind).
+  int tentative_memory_frames{0};
+
+  /// An object of this frame and a track seen in the previous frame are associated by their
+  /// masks when their pixels overlap by at least this share of the smaller mask (0..1).
+  float min_mask_overlap{0.1f};
+  /// ...or, without mask overlap, when their centroids are at most this far apart, metres.
+  float max_centroid_step_m{0.05f};
+  /// Box diagonals of an associated object and track differ by at most this factor (>= 1).
+  float max_size_ratio{3.0f};
+
+  /// A remembered (lost) track is reacquired by an object whose centroid lies within this
+  /// distance of the track's remembered box, metres...
+  float reacquire_distance_m{0.03f};
+  /// ...and whose box lies inside the remembered box by at least this share of its volume
+  /// (0..1), so that a different object placed beside it does not take its id.
+  float reacquire_min_box_inside{0.5f};
+  /// The remembered box is the one of the track's largest recent view (an object partly
+  /// hidden before it disappeared is remembered whole): the reference view's point count is
+  /// multiplied by this factor in every frame it is seen and replaced by the current view
+  /// when that has more points (0..1; 0 = always the last view).
+  float reference_decay{0.95f};
+
+  /// Split and merge: an object lying on a track's previous mask by at least this share of
+  /// its own pixels is a part of that track; when a track has several parts, only the part
+  /// with the most points keeps the track (the others get other or new ids). A track whose
+  /// previous mask lies on one object by at least this share is absorbed by it; when an
+  /// object absorbs several tracks, only the largest track (by the point count of its largest
+  /// recent view, see reference_decay; then by overlap) keeps the object and the others become
+  /// lost-but-remembered (0.5..1).
+  float part_min_fraction{0.5f};
+
+  /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
+  /// rest goes in equal parts to centroid proximity and 3-D box IoU (0..1).
+  float mask_weight{0.5f};
+  /// Scores of remembered tracks are multiplied by this factor, so an object that could
+  /// continue a visible track or reacquire a lost one continues the visible one (0..1].
+  float lost_score_factor{0.8f};
+
+  /// @throws std::invalid_argument naming the key `tracker.<field>` and the value.
+  void ValidateOrThrow() const;
+};
+
+/// State of a track in one frame.
+enum class TrackState : int8_t {
+  kNew = 0,        ///< seen in fewer than TrackerParams::confirm_frames frames
+  kConfirmed = 1,  ///< seen in at least confirm_frames frames (stays so while remembered)
+  kLost = 2,       ///< not seen in this frame, remembered (TrackingResult::lost only)
+};
+
+/// The track of one object of the frame; TrackingResult::objects[i] belongs to
+/// SegmentationResult::objects[i].
+struct ObjectTrack {
+  int64_t track_id{-1};    ///< >= 1, unique within the Tracker's life, never reused
+  int32_t age_frames{0};   ///< frames since the track was first seen (0 in that frame)
+  int32_t seen_frames{0};  ///< frames the track has been seen in, this one included
+  TrackState state{TrackState::kNew};
+  bool reacquired{false};  ///< the track was lost before this frame and is seen again
+};
+
+/// A track not seen in this frame and still remembered. Geometry in metres, camera frame,
+/// as last seen.
+struct LostTrack {
+  int64_t track_id{-1};
+  int32_t frames_since_seen{0};  ///< >= 1
+  int32_t age_frames{0};         ///< frames since the track was first seen
+  int32_t seen_frames{0};
+  TrackState state{TrackState::kLost};         ///< always kLost
+  bool was_confirmed{false};                   ///< false only with tentative_memory_frames > 0
+  uint32_t num_points{0};                      ///< of the last view
+  core::Vec3f centroid;                        ///< of the last view
+  core::Vec3f aabb_min, aabb_max;              ///< axis-aligned box of the last view
+  core::Vec3f remembered_min, remembered_max;  ///< the box used for reacquisition
+};
+
+/// Counters of one Update.
+struct TrackingCounts {
+  int continued{0};   ///< objects that continued a track seen in the previous frame
+  int reacquired{0};  ///< objects that got a remembered track back
+  int created{0};     ///< objects that started a new track
+  int splits{0};      ///< tracks that had several parts (split) this frame
+  int merges{0};      ///< objects that absorbed several tracks (merge) this frame
+};
+
+/// The tracker's output for one frame. Reused across frames (its vectors keep their
+/// capacity).
+struct TrackingResult {
+  int64_t frame_seq{0};
+  /// True when this frame's sequence number did not increase (a restarted source): every
+  /// track of the previous frames was ended (listed in ended_track_ids) before this frame.
+  bool reset{false};
+  std::vector<ObjectTrack> objects;  ///< aligned with SegmentationResult::objects
+  std::vector<LostTrack> lost;       ///< remembered tracks, by increasing track_id
+  /// Tracks that ended in this frame (lost for longer than their memory, or reset), by
+  /// increasing id; their ids never appear again.
+  std::vector<int64_t> ended_track_ids;
+  TrackingCounts counts;
+  double time_ms{0.0};  ///< wall time of this Update, milliseconds
+};
+
+/// Gives the objects of consecutive frames of one camera stable identities (docs/method.md,
+/// "Object identities across frames").
+///
+/// Each Update associates the objects of a frame with the current tracks (those seen in the
+/// previous frame and the remembered lost ones) by one optimal assignment (Hungarian method,
+/// optimize::AssignmentSolver) that maximises the summed association score. A pair may be
+/// associated when the object's pixels overlap the track's pixels of the previous frame
+/// (same label image layout: organized WxH or an unorganized 1xN cloud in the same point
+/// order), or their centroids are close and their sizes alike; a lost track only when the
+/// object lies in its remembered box. Splits keep the id on the largest part, merges on the
+/// largest track (see TrackerParams::part_min_fraction).
+///
+/// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
+/// per frame in frame order (from one thread at a time, e.g. an ordered completion step).
+/// It is sequential and deterministic: the same frames give the same output. Work buffers
+/// are kept, so steady-state frames do not allocate.
+/// Complexity: O(pixels + tracks x objects x min(tracks, objects)) per frame.
+class Tracker {
+ public:
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  /// @throws std::invalid_argument when `params` fail validation (naming the key).
+  explicit Tracker(const TrackerParams& params);
+  ~Tracker();
+
+  /// Tracks the objects of `frame`, the segmentation of the camera frame numbered
+  /// `frame_seq` (increasing; gaps count as elapsed frames, a sequence number that does not
+  /// increase resets the tracker), and fills `out` (reusing its storage). `frame` must hold
+  /// labels whose values are its objects' ids (as Segmenter produces). Never throws.
+  void Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out);
+
+  /// Forgets every track (their ids are not reused) and the previous frame; the next Update
+  /// reports them in ended_track_ids and sets TrackingResult::reset.
+  void Reset();
+
+  /// Replaces the parameters for the following Updates, keeping every track (so a
+  /// configuration reload between frames does not renumber the objects). Not to be called
+  /// during Update.
+  /// @throws std::invalid_argument when `params` fail validation (the old ones stay).
+  void SetParams(const TrackerParams& params);
+
+  const TrackerParams& params() const;
+  /// The id the next new track will get.
+  int64_t next_track_id() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace clutterseg::pipeline
