@@ -9,8 +9,9 @@
 // (unless --quiet), then, as the last line, one JSON object. A pair that cannot be scored (a
 // file that cannot be read, no label field, different point counts or image layouts) is
 // reported on stderr and left out; the others are still scored, the JSON line then carries
-// "failed": N and the exit code is 1. Exit codes: 0 ok, 1 I/O or data error (also a failed
-// pair), 2 bad command line.
+// "failed": N and the exit code is 5. Exit codes (core/exit_codes.h): 0 ok, 5 some pairs
+// could not be scored (the others were), 1 I/O or data error (no pair could be scored), 2 bad
+// command line.
 
 #include <unistd.h>
 
@@ -39,7 +40,8 @@ namespace clutterseg::eval {
 namespace {
 
 constexpr int kExitOk = 0;
-constexpr int kExitUsage = 2;  // I/O and data errors (1) are reported by main()
+constexpr int kExitUsage = 2;       // I/O and data errors (1) are reported by main()
+constexpr int kExitIncomplete = 5;  // some pairs could not be scored (core/exit_codes.h)
 
 // A command-line problem found after parsing (exit code 2).
 class UsageError : public std::runtime_error {
@@ -336,7 +338,7 @@ int Run(int argc, char** argv) {
   if (failed > 0) {
     std::fprintf(stderr, "clutterseg-eval: %d of %zu pair(s) could not be scored\n", failed,
                  pairs.size());
-    return 1;
+    return frames.empty() ? 1 : kExitIncomplete;
   }
   return kExitOk;
 }

@@ -5,8 +5,9 @@
 // Every message is checked against its own length before it is decoded (lcm-gen's decoders
 // allocate each array at the size the message declares) and label images against the frame
 // limits (core::FrameLimits): a malformed or hostile message is reported on stderr and
-// skipped, never an allocation. Exit codes: 0, 1 when a message was rejected or a PNG could
-// not be written (or an LCM error), 2 bad command line, 4 LCM unavailable.
+// skipped, never an allocation. Exit codes (core/exit_codes.h): 0, 5 when a message was
+// rejected or a label PNG could not be written (each named on stderr), 1 an LCM error, 2 bad
+// command line, 4 LCM unavailable.
 #include <signal.h>
 
 #include <atomic>
@@ -324,5 +325,5 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "clutterseg-listen: %llu label PNG(s) could not be written\n",
                  static_cast<unsigned long long>(listener.png_failures));
   }
-  return listener.rejected > 0 || listener.png_failures > 0 ? 1 : 0;
+  return listener.rejected > 0 || listener.png_failures > 0 ? 5 : 0;  // kExitIncomplete
 }

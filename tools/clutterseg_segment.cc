@@ -5,9 +5,10 @@
 // same file, also through a link), an output written twice, or (without --force) an existing
 // output file is refused. Every write is checked (a full disk is an error; a partly written
 // output is removed). An input that cannot be read is reported and counted and the others
-// are still segmented. Exit codes: 0 every frame segmented and written, 1 some frame failed
-// (unreadable input, write error) or every frame had no valid point, 2 bad command line or
-// refused outputs.
+// are still segmented. Exit codes (core/exit_codes.h): 0 every frame segmented and written;
+// 5 finished, but some input could not be read or some output could not be written (each
+// named on stderr, counted in the summary); 1 no input could be read, or no frame had a
+// valid point; 2 bad command line or refused outputs; 3 the input does not exist.
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -30,6 +31,7 @@
 #include <CLI/CLI.hpp>
 
 #include "clutterseg/config/segmenter_keys.h"
+#include "clutterseg/core/exit_codes.h"
 #include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/core/thread_pool.h"
@@ -43,10 +45,6 @@ namespace fs = std::filesystem;
 using namespace clutterseg;
 
 namespace {
-
-constexpr int kExitOk = 0;
-constexpr int kExitData = 1;
-constexpr int kExitUsage = 2;
 
 struct Options {
   std::string input;
@@ -286,7 +284,7 @@ int main(int argc, char** argv) {
     });
     if (inputs.empty()) {
       std::cerr << "clutterseg-segment: " << opt.input << ": no .pcd or .png files\n";
-      return kExitData;
+      return kExitSourceUnavailable;
     }
     for (const fs::path& p : inputs) {
       const std::string stem = p.stem().string();
@@ -298,7 +296,7 @@ int main(int argc, char** argv) {
   } else {
     if (!fs::exists(opt.input, ec)) {
       std::cerr << "clutterseg-segment: " << opt.input << ": no such file\n";
-      return kExitData;
+      return kExitSourceUnavailable;
     }
     jobs.push_back(Job{opt.input, opt.output, opt.json_out, opt.png_out});
   }
@@ -342,7 +340,7 @@ int main(int argc, char** argv) {
       if (!fs::is_directory(d)) {
         std::cerr << "clutterseg-segment: cannot create the output directory '" << d
                   << "': " << (ec ? ec.message() : std::string("not a directory")) << "\n";
-        return kExitData;
+        return kExitFailure;
       }
     }
   }
@@ -364,8 +362,9 @@ int main(int argc, char** argv) {
   struct LaneBuffers {
     core::PointCloud cloud;
     core::ColorImage base, overlay;
-    std::string message;     // progress line or error
-    std::string times_line;  // --times JSON line
+    std::string message;       // progress line or error
+    std::string times_line;    // --times JSON line
+    bool write_failed{false};  // the frame failed writing its outputs (not reading its input)
   };
   std::vector<LaneBuffers> buffers(static_cast<size_t>(runner_params.pipeline_depth));
 
@@ -375,17 +374,19 @@ int main(int argc, char** argv) {
     if (times == nullptr) {
       std::cerr << "clutterseg-segment: " << opt.times_out
                 << ": cannot open for appending: " << std::strerror(errno) << "\n";
-      return kExitData;
+      return kExitFailure;
     }
   }
   bool times_failed = false;
   double total_ms = 0.0;
   size_t total_objects = 0;
-  int failures = 0;
-  int empty_frames = 0;  // segmented, but no valid point in the depth range
+  int failures = 0;        // frames that failed, for any reason
+  int write_failures = 0;  // of which because an output could not be written
+  int empty_frames = 0;    // segmented, but no valid point in the depth range
   auto work = [&](const pipeline::FrameRunner::Lane& lane, uint64_t index) {
     const Job& job = jobs[index];
     LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
+    b.write_failed = false;
     core::CameraIntrinsics k;
     LoadInput(job.in, opt, &b.cloud, &k);
     pipeline::SegmentationResult& result = *lane.result;
@@ -400,6 +401,7 @@ int main(int argc, char** argv) {
         io::WriteColorPng(job.png.string(), b.overlay);
       }
     } catch (...) {
+      b.write_failed = true;
       // No partly written output may look like a result.
       std::error_code remove_ec;
       for (const fs::path& p : {job.out, job.json, job.png}) {
@@ -428,6 +430,7 @@ int main(int argc, char** argv) {
                 << (error->find(in) == std::string::npos ? in + ": " : std::string()) << *error
                 << "\n";
       ++failures;
+      write_failures += buffers[static_cast<size_t>(lane.index)].write_failed ? 1 : 0;
       return;
     }
     const LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
@@ -467,6 +470,7 @@ int main(int argc, char** argv) {
     }
   }
   const int segmented = static_cast<int>(jobs.size()) - failures;
+  const int unreadable = failures - write_failures;
   const bool all_empty = segmented > 0 && empty_frames == segmented;
   if (failures > 0) {
     std::cerr << "clutterseg-segment: " << failures << " of " << jobs.size()
@@ -491,9 +495,9 @@ int main(int argc, char** argv) {
   j.Field("wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size());
   j.Field("threads", threads_used).Field("lanes", lanes).EndObject();
   std::cout << j.str() << std::endl;
-  if (!std::cout) {
-    std::cerr << "clutterseg-segment: cannot write the summary to stdout\n";
-    return kExitData;
-  }
-  return failures == 0 && !times_failed && !all_empty ? kExitOk : kExitData;
+  const bool summary_written = static_cast<bool>(std::cout);
+  if (!summary_written) std::cerr << "clutterseg-segment: cannot write the summary to stdout\n";
+  if (unreadable == static_cast<int>(jobs.size()) || all_empty) return kExitFailure;
+  if (failures > 0 || times_failed || !summary_written) return kExitIncomplete;
+  return kExitOk;
 }

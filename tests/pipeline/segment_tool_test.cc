@@ -1,6 +1,7 @@
 // clutterseg-segment as a process on real files: it never writes over its inputs or (without
 // --force) over existing outputs, reports every failed write with a non-zero exit (a real
 // full tmpfs, /dev/full), goes on past a bad input and says when no frame had a valid point.
+// Exit codes: 5 (kExitIncomplete) finished with failed inputs or outputs, 1 nothing usable.
 
 #include <cerrno>
 #include <cstdint>
@@ -194,7 +195,7 @@ TEST_F(SegmentToolFullDisk, EveryOutputsWriteErrorExitsNonZero) {
   const std::string in = (dir_ / "in.pcd").string();
   // The labelled cloud (384 kB) does not fit in 64 KiB: reported, and no partial file left.
   ProcessResult r = Segment({in, (full_ / "out.pcd").string()});
-  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(r.exit_code, 5) << r.err;
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find((full_ / "out.pcd").string()), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(full_ / "out.pcd")) << "the partly written output is removed";
@@ -205,13 +206,13 @@ TEST_F(SegmentToolFullDisk, EveryOutputsWriteErrorExitsNonZero) {
     SCOPED_TRACE(option);
     const std::string target = (full_ / (std::string(option + 2) + ".out")).string();
     r = Segment({in, (dir_ / (std::string(option + 2) + ".pcd")).string(), option, target});
-    EXPECT_EQ(r.exit_code, 1) << r.err;
+    EXPECT_EQ(r.exit_code, 5) << r.err;
     EXPECT_NE(r.err.find(target), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
   }
   // /dev/full for every output at once.
   r = Segment({in, "/dev/full", "--json", (dir_ / "x.json").string()});
-  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(r.exit_code, 5) << r.err;
   EXPECT_NE(r.err.find("/dev/full"), std::string::npos) << r.err;
 }
 
@@ -223,7 +224,7 @@ TEST(SegmentTool, BadInputInADirectoryIsCountedAndTheOthersStillWritten) {
   const std::string f1 = ReadText(in / "f1.pcd");
   std::ofstream(in / "f1.pcd", std::ios::binary | std::ios::trunc) << f1.substr(0, f1.size() / 3);
   const ProcessResult r = Segment({in.string(), (dir / "out").string()});
-  EXPECT_EQ(r.exit_code, 1) << r.err;
+  EXPECT_EQ(r.exit_code, 5) << "finished, one input missing: " << r.err;
   EXPECT_NE(r.err.find((in / "f1.pcd").string()), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("truncated"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("1 of 3 frame(s) failed"), std::string::npos) << r.err;
