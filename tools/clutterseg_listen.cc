@@ -197,6 +197,13 @@ struct Listener {
     if (png_dir.empty()) return;
     try {
       clutterseg::daemon::DecodeLabelImage(*m, &labels);
+    } catch (const std::exception& e) {
+      ++rejected;
+      std::fprintf(stderr, "clutterseg-listen: frame %lld: rejected its label image: %s\n",
+                   static_cast<long long>(m->frame_seq), e.what());
+      return;
+    }
+    try {
       clutterseg::pipeline::RenderOverlay(labels, nullptr, &image);
       char name[64];
       std::snprintf(name, sizeof(name), "/labels_%06lld.png", static_cast<long long>(m->frame_seq));
@@ -276,7 +283,15 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (!listener.png_dir.empty()) std::filesystem::create_directories(listener.png_dir);
+  if (!listener.png_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(listener.png_dir, ec);
+    if (!std::filesystem::is_directory(listener.png_dir)) {
+      std::fprintf(stderr, "clutterseg-listen: cannot create --png directory '%s': %s\n",
+                   listener.png_dir.c_str(), ec ? ec.message().c_str() : "not a directory");
+      return 1;
+    }
+  }
   std::unique_ptr<clutterseg::daemon::LcmBus> bus;
   try {
     bus = std::make_unique<clutterseg::daemon::LcmBus>(url);

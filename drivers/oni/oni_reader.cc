@@ -324,6 +324,10 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
                                    " bytes exceeds the limit " +
                                    std::to_string(limits.max_frame_bytes));
         }
+        if (info.frames.size() >= limits.max_frame_records) {
+          throw std::runtime_error(where + ": more than " +
+                                   std::to_string(limits.max_frame_records) + " frame records");
+        }
         ++n.data_records;
         info.frames.push_back(f);
         break;
@@ -346,6 +350,25 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
     }
     if (info.has_end) break;
     pos += record_size;
+  }
+  // A node's seek table is read where its NODE_ADDED says it is (as OpenNI2 does), also when
+  // the walk above ended before it (an END record too early).
+  for (OniNodeInfo& n : info.nodes) {
+    if (n.seek_table_offset == 0 || n.seek_table_entries != 0 || n.seek_table_offset > size ||
+        size - n.seek_table_offset < header_size) {
+      continue;
+    }
+    uint8_t rh[internal::kOniRecordHeaderSize];
+    src->Read(n.seek_table_offset, rh, header_size);
+    const auto fields_size = static_cast<uint32_t>(ReadLe(rh + 12, 4));
+    const auto payload_size = static_cast<uint32_t>(ReadLe(rh + 16, 4));
+    if (ReadLe(rh, 4) == internal::kOniRecordMagic &&
+        ReadLe(rh + 4, 4) == static_cast<uint32_t>(OniRecordType::kSeekTable) &&
+        ReadLe(rh + 8, 4) == n.id && fields_size >= header_size &&
+        uint64_t{fields_size} + payload_size <= size - n.seek_table_offset &&
+        payload_size % internal::kOniSeekEntrySize == 0) {
+      n.seek_table_entries = payload_size / internal::kOniSeekEntrySize;
+    }
   }
   return info;
 }

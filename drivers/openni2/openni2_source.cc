@@ -159,6 +159,15 @@ RecordingPlan ValidateRecording(const std::string& path, const core::FrameLimits
     }
     if (n.width == 0) fail("stream '" + n.name + "' has no xnMapOutputMode property");
     if (!n.state_ready || !n.data_begin) fail("stream '" + n.name + "' never starts its data");
+    // OniFile reads a seek table of (frames + 1) entries: a count its table does not confirm
+    // is refused (it would also size OniFile's allocation).
+    const bool declared = n.number_of_frames != std::numeric_limits<uint32_t>::max();
+    if (declared && n.seek_table_offset != 0 &&
+        uint64_t{n.seek_table_entries} != uint64_t{n.number_of_frames} + 1) {
+      fail("stream '" + n.name + "' declares " + std::to_string(n.number_of_frames) +
+           " frames but its seek table holds " + std::to_string(n.seek_table_entries) +
+           " entries (expected one more than the frames)");
+    }
     const uint64_t bpp = BytesPerPixel(n);
     const std::string size = std::to_string(n.width) + "x" + std::to_string(n.height);
     if (const std::optional<std::string> too_large =
@@ -221,8 +230,11 @@ RecordingPlan ValidateRecording(const std::string& path, const core::FrameLimits
   plan.depth_records = depth.data_records;
   plan.color_records =
       color_index >= 0 ? info.nodes[static_cast<size_t>(color_index)].data_records : 0;
-  const bool declared = depth.number_of_frames != std::numeric_limits<uint32_t>::max();
-  plan.frames_in_source = std::max<int64_t>(declared ? depth.number_of_frames : 0,
+  // The frames the recording holds: its declared count when its seek table confirms it
+  // (frame records damaged since then are counted as not delivered), else the records.
+  const bool confirmed = depth.number_of_frames != std::numeric_limits<uint32_t>::max() &&
+                         depth.seek_table_offset != 0;
+  plan.frames_in_source = std::max<int64_t>(confirmed ? depth.number_of_frames : 0,
                                             static_cast<int64_t>(depth.data_records));
   if (plan.frames_in_source > plan.depth_records) {
     plan.damage = "the recording declares " + std::to_string(plan.frames_in_source) +

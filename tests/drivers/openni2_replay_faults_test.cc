@@ -277,6 +277,18 @@ TEST_F(OpenNI2ReplayFaults, FlippedRecordTypeBitIsCountedAsNotDelivered) {
       << r.ToString();
 }
 
+// A frame count beyond what the seek table holds (OniFile sizes its table by it).
+TEST_F(OpenNI2ReplayFaults, FrameCountTheSeekTableDoesNotConfirmIsRefused) {
+  std::vector<uint8_t> b = bytes_;
+  for (const testutil::OniRecord& r : testutil::WalkOni(b)) {
+    if (r.type == 0x0D && r.node == 1) {  // NODE_ADDED "Depth": numberOfFrames
+      testutil::PutLe(&b, r.offset + 28 + 4 + 6 + 4 + 4, 0xfffffff0u, 4);
+    }
+  }
+  ExpectRefused(Write("huge_count.oni", b),
+                "declares 4294967280 frames but its seek table holds 9 entries");
+}
+
 TEST_F(OpenNI2ReplayFaults, NegativeRequiredFrameSizeIsRefused) {
   std::vector<uint8_t> b = bytes_;
   const size_t at = testutil::PropertyValueOffset(b, 1, "oniRequiredFrameSize");
