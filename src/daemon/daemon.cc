@@ -267,6 +267,9 @@ struct Daemon::Impl {
     }
     c.publish_failures = publisher.publish_failures();
     c.reconnect_attempts = capture.reconnect_attempts();
+    const core::SourceReport report = source->report();
+    c.frames_not_delivered = report.frames_skipped();
+    c.frames_expected = report.frames_in_source;
     c.queue_depth = static_cast<int32_t>(queue->size());
     c.queue_capacity = static_cast<int32_t>(queue->capacity());
     c.last_num_objects = last_num_objects.load();
@@ -372,6 +375,7 @@ DaemonStats Daemon::stats() const {
   s.reconnect_attempts = d.capture.reconnect_attempts();
   s.param_reloads = d.reloads.load();
   s.device_state = d.capture.device_state();
+  s.source = d.source->report();
   return s;
 }
 

@@ -37,6 +37,9 @@ struct DaemonStats {
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
   uint64_t param_reloads{0};  ///< segmenter parameter sets applied after start
+  /// What the source delivered and could not (frames skipped with their reasons, the frames
+  /// a recording holds, empty frames); see core::SourceReport.
+  core::SourceReport source;
   DeviceState device_state{DeviceState::kStarting};
 };
 

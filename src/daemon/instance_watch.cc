@@ -61,8 +61,9 @@ void InstanceWatch::Loop() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (!conflict_.empty() && !logged_) {
       logged_ = true;
-      Log(LogLevel::kError, conflict_ + "; subscribers cannot tell the two apart: give each "
-                                        "daemon its own camera_name");
+      Log(LogLevel::kError, conflict_ +
+                                "; subscribers cannot tell the two apart: give each "
+                                "daemon its own camera_name");
     }
   }
 }

@@ -1,14 +1,16 @@
 #include "clutterseg/daemon/lcm_log_file.h"
 
 #include <fcntl.h>
-#include <sys/file.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
+
+#include <sys/file.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
 
 namespace clutterseg::daemon {
 namespace {
@@ -88,12 +90,17 @@ LcmLogFileGuard::LcmLogFileGuard(const FileLogUrl& log) : log_(log) {
                              " (check the path, that its directory exists and is writable)");
   }
   struct stat st {};
+  if (fstat(fd_, &st) == 0 && S_ISCHR(st.st_mode) && st.st_rdev == makedev(1, 3)) {
+    discard_ = true;  // /dev/null: the messages are meant to go nowhere
+    return;
+  }
   if (fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
     close(fd_);
     fd_ = -1;
     throw std::runtime_error("LCM log " + log.path +
                              " is not a regular file (a FIFO, device or directory): the daemon "
-                             "writes logs to regular files only, so that it can verify them");
+                             "writes logs to regular files (or /dev/null) only, so that it can "
+                             "verify them");
   }
   if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
@@ -124,12 +131,13 @@ LcmLogFileGuard::~LcmLogFileGuard() {
 }
 
 std::string LcmLogFileGuard::Verify(uint64_t published) const {
+  if (discard_) return {};
   const LcmLogScan scan = ScanLcmLog(log_.path);
   const uint64_t ours = scan.events > events_before_ ? scan.events - events_before_ : 0;
   if (!scan.complete) {
-    return "LCM log " + log_.path + " is cut short (is the disk full?): " +
-           std::to_string(ours) + " whole messages of the " + std::to_string(published) +
-           " published, then " + scan.problem;
+    return "LCM log " + log_.path + " is cut short (is the disk full?): " + std::to_string(ours) +
+           " whole messages of the " + std::to_string(published) + " published, then " +
+           scan.problem;
   }
   if (ours < published) {
     return "LCM log " + log_.path + " holds " + std::to_string(ours) + " of the " +

@@ -41,8 +41,10 @@ class LcmLogFileGuard {
   LcmLogFileGuard(const LcmLogFileGuard&) = delete;
   LcmLogFileGuard& operator=(const LcmLogFileGuard&) = delete;
 
-  /// @throws std::runtime_error naming the file when it is locked by another process or
-  /// cannot be opened or repaired.
+  /// /dev/null is accepted as a log that discards every message (nothing to verify); any
+  /// other file that is not a regular file (a FIFO, /dev/full, a directory) is refused.
+  /// @throws std::runtime_error naming the file when it is not a regular file, is locked by
+  /// another process or cannot be opened or repaired.
   explicit LcmLogFileGuard(const FileLogUrl& log);
   ~LcmLogFileGuard();
 
@@ -61,6 +63,7 @@ class LcmLogFileGuard {
   int fd_{-1};
   uint64_t repaired_bytes_{0};
   uint64_t events_before_{0};
+  bool discard_{false};  // the log is /dev/null: nothing to lock or verify
 };
 
 }  // namespace clutterseg::daemon

@@ -277,6 +277,12 @@ int Run(int argc, char** argv) {
   bus.reset();
   const std::string log_problem = log_guard ? log_guard->Verify(messages_published) : "";
   ShutdownSourceDrivers();
+  if (code == kExitOk && stats.source.all_empty()) {
+    Log(LogLevel::kError, "every one of the " + std::to_string(stats.source.frames_delivered) +
+                              " frames the source delivered was empty (no depth measurement): "
+                              "check the recording, the depth scale and the intrinsics");
+    code = kExitFailure;
+  }
   if (code == kExitOk) {
     const std::vector<std::string> missing = Undelivered(stats, log_problem);
     if (!missing.empty()) {

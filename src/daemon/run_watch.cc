@@ -114,6 +114,17 @@ std::vector<std::string> Undelivered(const DaemonStats& s, const std::string& lo
   auto count = [&](uint64_t n, const char* what) {
     if (n > 0) missing.push_back(std::to_string(n) + " " + what);
   };
+  if (s.source.lost_frames()) {
+    std::string reasons;
+    for (size_t r = 0; r < core::kNumSkipReasons; ++r) {
+      const uint64_t n = s.source.skipped[r];
+      if (n == 0) continue;
+      reasons += std::string(reasons.empty() ? "" : ", ") + std::to_string(n) + " " +
+                 core::ToString(static_cast<core::SkipReason>(r));
+    }
+    missing.push_back(std::to_string(s.source.frames_skipped()) +
+                      " frames of the source not delivered (" + reasons + ")");
+  }
   count(s.publish_failures, "messages refused by the LCM transport");
   count(s.frames_publish_dropped, "frames dropped in front of a transport that fell behind");
   count(s.overlay_failures, "overlay PNGs not written");

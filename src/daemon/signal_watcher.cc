@@ -2,14 +2,15 @@
 
 #include <poll.h>
 #include <pthread.h>
-#include <sys/eventfd.h>
-#include <sys/signalfd.h>
 #include <unistd.h>
 
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 #include <string>
+
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
 
 #include "clutterseg/core/exit_codes.h"
 #include "clutterseg/daemon/log.h"
@@ -81,8 +82,8 @@ void SignalWatcher::Loop() {
     if (!(fds[0].revents & POLLIN)) {
       std::lock_guard<std::mutex> lock(mutex_);
       if (phase_ == Phase::kStarting && std::chrono::steady_clock::now() > startup_deadline_) {
-        Log(LogLevel::kError, "start-up did not finish in time: " + step_ +
-                                  " does not return; exiting");
+        Log(LogLevel::kError,
+            "start-up did not finish in time: " + step_ + " does not return; exiting");
         std::_Exit(step_exit_code_);
       }
       continue;

@@ -3,11 +3,7 @@
 // Each run is the real `clutterseg` process on a recording written by clutterseg-synth; the
 // checks are on its exit code (5 = finished, not everything delivered), its last log line
 // and the files it left.
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/mount.h>
-#include <sys/socket.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -19,8 +15,14 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <sys/mount.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
 
 #include "clutterseg/core/exit_codes.h"
+#include "clutterseg/io/png_io.h"
+#include "clutterseg/status_t.hpp"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 
@@ -37,9 +39,9 @@ class DaemonDelivery : public ::testing::Test {
     dir_ = testing::ScratchDir("daemon_delivery_" + std::to_string(getpid()));
     recording_ = (dir_ / "scene.oni").string();
     std::string err;
-    have_recording_ = testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", recording_, "--count", "6",
-                                     "--seed", "5"},
-                                    std::chrono::minutes(5), &err) == 0;
+    have_recording_ =
+        testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", recording_, "--count", "6", "--seed", "5"},
+                      std::chrono::minutes(5), &err) == 0;
     if (!have_recording_) std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
   }
   static void TearDownTestSuite() {
@@ -53,8 +55,8 @@ class DaemonDelivery : public ::testing::Test {
   // The daemon replaying the recording in lockstep to `url`, with `extra` arguments.
   static std::vector<std::string> Args(const std::string& url,
                                        const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> argv = {CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed",
-                                     "max", "--lcm-url", url};
+    std::vector<std::string> argv = {
+        CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed", "max", "--lcm-url", url};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return argv;
   }
@@ -86,8 +88,7 @@ TEST_F(DaemonDelivery, ASecondWriterOfALogIsRefusedAndTheFirstLogStaysWhole) {
   ASSERT_GE(testutil::ScanLcmLog(log).events, 3u) << "the first daemon does not publish";
   for (const char* mode : {"w", "a"}) {
     std::string err;
-    const int rc =
-        testutil::Run(Args("file://" + log + "?mode=" + mode), seconds(60), &err);
+    const int rc = testutil::Run(Args("file://" + log + "?mode=" + mode), seconds(60), &err);
     EXPECT_EQ(rc, kExitLcmUnavailable) << "mode=" << mode << ":\n" << err;
     EXPECT_NE(err.find("another process is writing it"), std::string::npos) << err;
   }
@@ -98,7 +99,8 @@ TEST_F(DaemonDelivery, ASecondWriterOfALogIsRefusedAndTheFirstLogStaysWhole) {
   EXPECT_TRUE(scan.complete) << "the refused writers did not touch it: " << scan.problem;
 }
 
-// A FIFO nobody reads would block LCM's writes (and the open); /dev/full accepts nothing.
+// A FIFO nobody reads would block LCM's writes (and the open); /dev/full accepts nothing;
+// /dev/null discards.
 TEST_F(DaemonDelivery, ALogThatIsNotARegularFileIsRefused) {
   const std::string fifo = Scratch("log.fifo");
   ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0) << std::strerror(errno);
@@ -110,6 +112,9 @@ TEST_F(DaemonDelivery, ALogThatIsNotARegularFileIsRefused) {
       EXPECT_NE(err.find(path + " is not a regular file"), std::string::npos) << err;
     }
   }
+  // /dev/null is the one device taken: a run whose messages are meant to go nowhere.
+  std::string err;
+  EXPECT_EQ(testutil::Run(Args("file:///dev/null?mode=w"), seconds(60), &err), kExitOk) << err;
 }
 
 TEST_F(DaemonDelivery, ATornLogEndIsCutBeforeAppending) {
@@ -174,9 +179,9 @@ TEST_F(DaemonDelivery, AFullDiskEndsWithExitFiveSayingWhatIsMissing) {
   }
   const auto png_dir = mount_point / "overlays";
   std::filesystem::create_directories(png_dir);
-  rc = testutil::Run(Args("file://" + Scratch("overlays.lcmlog") + "?mode=w",
-                          {"--png-dir", png_dir.string()}),
-                     seconds(60), &err);
+  rc = testutil::Run(
+      Args("file://" + Scratch("overlays.lcmlog") + "?mode=w", {"--png-dir", png_dir.string()}),
+      seconds(60), &err);
   EXPECT_EQ(rc, kExitIncomplete) << err;
   EXPECT_NE(LastLine(err).find("overlay PNGs not written"), std::string::npos) << err;
   // A failed overlay costs that overlay only: every frame was still published.
@@ -191,8 +196,7 @@ TEST_F(DaemonDelivery, TcpqWithoutAServerExitsFiveCountingTheRefusals) {
   std::string err;
   const int rc = testutil::Run(Args("tcpq://127.0.0.1:1"), seconds(60), &err);
   EXPECT_EQ(rc, kExitIncomplete) << err;
-  EXPECT_NE(LastLine(err).find("messages refused by the LCM transport"), std::string::npos)
-      << err;
+  EXPECT_NE(LastLine(err).find("messages refused by the LCM transport"), std::string::npos) << err;
 }
 
 // A TCP listener on 127.0.0.1 that never accepts, reads or answers: LCM's tcpq client then
@@ -224,15 +228,13 @@ TEST_F(DaemonDelivery, AHubThatNeverAnswersEndsStartUpWithExitFour) {
   ASSERT_GE(server, 0);
   const auto t0 = Clock::now();
   std::string err;
-  const int rc =
-      testutil::Run(Args("tcpq://127.0.0.1:" + std::to_string(port)), seconds(90), &err);
+  const int rc = testutil::Run(Args("tcpq://127.0.0.1:" + std::to_string(port)), seconds(90), &err);
   const double taken = std::chrono::duration<double>(Clock::now() - t0).count();
   close(server);
   std::printf("silent hub at start-up: exit %d after %.1f s\n", rc, taken);
   ASSERT_NE(rc, -1) << "hung:\n" << err;
   EXPECT_EQ(rc, kExitLcmUnavailable) << err;
-  EXPECT_NE(err.find("start-up did not finish in time: opening LCM URL"), std::string::npos)
-      << err;
+  EXPECT_NE(err.find("start-up did not finish in time: opening LCM URL"), std::string::npos) << err;
 }
 
 // The hub goes silent while the daemon runs (the first connection was refused; LCM's tcpq
@@ -265,6 +267,59 @@ TEST_F(DaemonDelivery, AStalledTransportIsAbandonedWithExitFive) {
   EXPECT_LT(taken, 1.5) << err;
   EXPECT_NE(err.find("did not take the last messages within 900 ms"), std::string::npos) << err;
   EXPECT_NE(err.find("not published"), std::string::npos) << err;
+}
+
+// A directory in which one depth image is damaged: the daemon publishes the others, names
+// the damaged file as it goes, reports it in status_t and ends with exit code 5.
+TEST_F(DaemonDelivery, AFrameTheSourceCannotDeliverEndsWithExitFive) {
+  const std::filesystem::path frames = dir_ / "pngs_one_bad";
+  std::filesystem::create_directories(frames);
+  const core::DepthImage depth(64, 48, uint16_t{900});
+  for (int i = 0; i < 4; ++i) {
+    io::WriteDepthPng((frames / ("00000" + std::to_string(i) + "-depth.png")).string(), depth);
+  }
+  std::filesystem::resize_file(frames / "000002-depth.png", 40);  // cut in its IHDR chunk
+  const std::string log = Scratch("one_bad.lcmlog");
+  std::vector<std::string> argv = Args("file://" + log + "?mode=w");
+  argv[2] = frames.string();
+  std::string err;
+  EXPECT_EQ(testutil::Run(argv, seconds(60), &err), kExitIncomplete) << err;
+  EXPECT_NE(err.find("frame not delivered by the source (unreadable)"), std::string::npos) << err;
+  EXPECT_NE(err.find("000002-depth.png"), std::string::npos) << err;
+  EXPECT_NE(LastLine(err).find("1 frames of the source not delivered (1 unreadable)"),
+            std::string::npos)
+      << err;
+  size_t objects = 0;
+  int64_t not_delivered = -1;
+  int64_t expected = 0;
+  for (const testutil::LogEvent& ev : testutil::ReadLcmLog(log)) {
+    objects += ev.channel == "CLUTTERSEG_OBJECTS";
+    if (ev.channel != "CLUTTERSEG_STATUS") continue;
+    clutterseg::status_t st;
+    ASSERT_GT(st.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())), 0);
+    not_delivered = st.frames_not_delivered;
+    expected = st.frames_expected;
+  }
+  EXPECT_EQ(objects, 3u);
+  EXPECT_EQ(not_delivered, 1) << "the last status_t counts the damaged frame";
+  EXPECT_EQ(expected, 4);
+}
+
+// Depth images without a single measurement (a wrong depth scale, a covered lens): the run
+// produces nothing usable and says so with exit code 1.
+TEST_F(DaemonDelivery, ASourceOfOnlyEmptyFramesIsAFailure) {
+  const std::filesystem::path frames = dir_ / "pngs_empty";
+  std::filesystem::create_directories(frames);
+  const core::DepthImage depth(64, 48, uint16_t{0});
+  for (int i = 0; i < 3; ++i) {
+    io::WriteDepthPng((frames / ("00000" + std::to_string(i) + "-depth.png")).string(), depth);
+  }
+  std::vector<std::string> argv = Args("memq://");
+  argv[2] = frames.string();
+  std::string err;
+  EXPECT_EQ(testutil::Run(argv, seconds(60), &err), kExitFailure) << err;
+  EXPECT_NE(err.find("every one of the 3 frames the source delivered was empty"), std::string::npos)
+      << err;
 }
 
 TEST_F(DaemonDelivery, NegativeCountsOnTheCommandLineAreUsageErrors) {
