@@ -261,6 +261,7 @@ void OpenNI2SourceOptions::ValidateOrThrow() const {
   check.Require(replay_speed == -1.0 || (replay_speed > 0.0 && replay_speed <= 1000.0),
                 "replay_speed", replay_speed, "-1 (lockstep) or a speed factor in (0, 1000]");
   limits.ValidateOrThrow("limits");
+  if (intrinsics) intrinsics->ValidateOrThrow("camera.intrinsics");
 }
 
 void InitializeOpenNI2(OpenNI2Drivers drivers) {
@@ -372,6 +373,7 @@ struct OpenNI2Source::Impl {
   bool with_color{false};
   bool registered{false};
   bool fov_from_device{true};
+  bool calibrated{false};  // options.intrinsics replaced the field of view's
   bool end_reached{false};
   uint64_t sequence{0};
   core::CameraIntrinsics intr;
@@ -505,6 +507,17 @@ struct OpenNI2Source::Impl {
     const int h = mode.getResolutionY();
     if (const std::optional<std::string> too_large = options.limits.CheckImage(w, h, 2)) {
       Fail("the depth stream's size " + *too_large);
+    }
+    if (options.intrinsics) {
+      const core::CameraIntrinsics& k = *options.intrinsics;
+      if (static_cast<int64_t>(k.width) * h != static_cast<int64_t>(k.height) * w) {
+        Fail("the calibrated intrinsics are for " + std::to_string(k.width) + "x" +
+             std::to_string(k.height) + " px, another aspect ratio than the depth stream's " +
+             std::to_string(w) + "x" + std::to_string(h));
+      }
+      intr = k.Scaled(w, h);
+      calibrated = true;
+      return;
     }
     const double hfov = depth_stream.getHorizontalFieldOfView();
     const double vfov = depth_stream.getVerticalFieldOfView();
@@ -644,7 +657,11 @@ struct OpenNI2Source::Impl {
       }
       if (options.loop) os << ", loop";
     }
-    if (!fov_from_device) os << ", no FOV: default intrinsics";
+    if (calibrated) {
+      os << ", calibrated intrinsics";
+    } else if (!fov_from_device) {
+      os << ", no FOV: default intrinsics";
+    }
     os << ")";
     description = os.str();
     open = true;
@@ -1128,6 +1145,7 @@ void OpenNI2Source::Open() {
   m.last_depth_index = 0;
   m.sequence = 0;
   m.registered = false;
+  m.calibrated = false;
   m.pace = false;
   m.pace_base_set = false;
   m.waiting_for_depth = false;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "clutterseg/core/camera_intrinsics.h"
@@ -30,6 +31,10 @@ struct OpenNI2SourceOptions {
   double replay_speed{1.0};
   bool loop{false};  ///< restart a recording at its end instead of returning kEndOfStream
   std::string camera_name{"camera"};  ///< copied into RgbdFrame::camera_name
+  /// Calibrated intrinsics replacing those derived from the field of view, scaled to the depth
+  /// stream's resolution (their width / height say which resolution they were measured at;
+  /// another aspect ratio is refused at Open()). Unset = from the field of view.
+  std::optional<core::CameraIntrinsics> intrinsics;
   /// Largest frame accepted: a recording whose streams declare more is refused at Open(), a
   /// delivered frame beyond them is skipped (SkipReason::kTooLarge).
   core::FrameLimits limits;

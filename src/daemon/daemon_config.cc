@@ -73,6 +73,14 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
             "speed", [](auto& c) -> auto& { return c.capture.speed; }),
         MakeKey("loop", &C::capture, &CaptureParams::loop),
         MakeKey("camera_name", &C::capture, &CaptureParams::camera_name),
+        MakeKey("camera.serial", &C::camera, &SourceParams::serial),
+        MakeKey("camera.width", &C::camera, &SourceParams::width),
+        MakeKey("camera.height", &C::camera, &SourceParams::height),
+        MakeKey("camera.fps", &C::camera, &SourceParams::fps),
+        MakeKey("camera.color", &C::camera, &SourceParams::color),
+        MakeKey("camera.registration", &C::camera, &SourceParams::registration),
+        MakeKey("camera.intrinsics_file", &C::camera, &SourceParams::intrinsics_file),
+        MakeKey("camera.depth_scale_mm", &C::camera, &SourceParams::depth_scale_mm),
         MakeKey("lcm.url", &C::lcm, &LcmPublisherParams::url),
         MakeKey("lcm.objects_channel", &C::lcm, &LcmPublisherParams::objects_channel),
         MakeKey("lcm.labels_channel", &C::lcm, &LcmPublisherParams::labels_channel),
@@ -134,6 +142,7 @@ void ValidateOrThrowConfig(const DaemonConfig& config, const std::string& origin
 
 void DaemonConfig::ValidateOrThrow() const {
   core::ParamCheck("").NonEmpty("source", source, "device, device:URI, FILE.oni, DIR or synthetic");
+  camera.ValidateOrThrow();
   capture.ValidateOrThrow();
   processing.ValidateOrThrow();
   lcm.ValidateOrThrow();

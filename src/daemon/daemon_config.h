@@ -8,6 +8,7 @@
 #include "clutterseg/daemon/lcm_publisher.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/daemon/overlay_writer.h"
+#include "clutterseg/daemon/source_params.h"
 #include "clutterseg/daemon/status_reporter.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/segmenter_params.h"
@@ -25,6 +26,7 @@ struct DaemonConfig {
   /// Frame source (key `source`): `device` (first OpenNI2 device), `device:URI`, `FILE.oni`,
   /// a directory of PCD or depth PNG frames, or `synthetic`.
   std::string source{"device"};
+  SourceParams camera;                     ///< camera.*: device, depth scale, intrinsics
   CaptureParams capture;                   ///< speed, loop, camera_name, queue, reconnect
   pipeline::FrameRunnerParams processing;  ///< processing.threads, processing.pipeline_depth
   LcmPublisherParams lcm;                  ///< lcm.*

@@ -1,10 +1,12 @@
 #include "clutterseg/daemon/source_factory.h"
 
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/io/png_io.h"
 
 #ifdef CLUTTERSEG_HAVE_OPENNI2
 #include "clutterseg/drivers/openni2/openni2_source.h"
@@ -39,6 +41,20 @@ bool HasPcdFiles(const std::filesystem::path& dir) {
                               "this binary");
 }
 
+// The intrinsics of camera.intrinsics_file, unset when it is "". @throws
+// std::invalid_argument naming the key and the file when it cannot be read or is implausible.
+std::optional<core::CameraIntrinsics> IntrinsicsOf(const SourceParams& camera) {
+  if (camera.intrinsics_file.empty()) return std::nullopt;
+  try {
+    core::CameraIntrinsics k = io::ReadIntrinsicsJson(camera.intrinsics_file);
+    k.ValidateOrThrow("camera.intrinsics_file");
+    return k;
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("camera.intrinsics_file = '" + camera.intrinsics_file +
+                                "': " + e.what());
+  }
+}
+
 }  // namespace
 
 SourceKind ClassifySource(const std::string& source) {
@@ -67,6 +83,8 @@ SourceKind ClassifySource(const std::string& source) {
 std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
   const std::string& source = config.source;
   const bool max_speed = config.capture.speed == Speed::kMax;
+  const SourceParams& camera = config.camera;
+  const std::optional<core::CameraIntrinsics> intrinsics = IntrinsicsOf(camera);
   switch (ClassifySource(source)) {
     case SourceKind::kDevice:
     case SourceKind::kOniFile: {
@@ -77,6 +95,13 @@ std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
       } else if (source != "device") {
         o.uri = source;
       }
+      o.serial = camera.serial;
+      o.width = camera.width;
+      o.height = camera.height;
+      o.fps = camera.fps;
+      o.color = camera.color;
+      o.registration = camera.registration;
+      o.intrinsics = intrinsics;
       o.replay_speed = max_speed ? -1.0 : 1.0;
       o.loop = config.capture.loop;
       o.camera_name = config.capture.camera_name;
@@ -90,6 +115,10 @@ std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
 #ifdef CLUTTERSEG_HAVE_REPLAY
       drivers::PcdDirectorySourceOptions o;
       o.path = source;
+      if (intrinsics) {
+        o.estimate_intrinsics = false;
+        o.intrinsics = *intrinsics;
+      }
       o.loop = config.capture.loop;
       o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();
@@ -102,6 +131,9 @@ std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
 #ifdef CLUTTERSEG_HAVE_REPLAY
       drivers::DepthPngSourceOptions o;
       o.directory = source;
+      o.intrinsics_json = camera.intrinsics_file;
+      o.depth_scale_to_mm = camera.depth_scale_mm;
+      o.color = camera.color;
       o.loop = config.capture.loop;
       o.camera_name = config.capture.camera_name;
       o.ValidateOrThrow();

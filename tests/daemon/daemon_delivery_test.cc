@@ -1,5 +1,6 @@
 // Outputs the daemon cannot deliver: an LCM log another daemon writes, a log a killed run left
-// torn, a disk that fills up, an LCM transport that refuses every message or never returns.
+// torn, a disk that fills up, an LCM transport that refuses every message or never returns;
+// and what its sources deliver: damaged or empty frames, the camera.* keys.
 // Each run is the real `clutterseg` process on a recording written by clutterseg-synth; the
 // checks are on its exit code (5 = finished, not everything delivered), its last log line
 // and the files it left.
@@ -320,6 +321,64 @@ TEST_F(DaemonDelivery, ASourceOfOnlyEmptyFramesIsAFailure) {
   EXPECT_EQ(testutil::Run(argv, seconds(60), &err), kExitFailure) << err;
   EXPECT_NE(err.find("every one of the 3 frames the source delivered was empty"), std::string::npos)
       << err;
+}
+
+// camera.depth_scale_mm reaches a depth-PNG directory: a scale that puts every pixel at 0 mm
+// leaves nothing to segment (exit 1), the default scale segments the same frames.
+TEST_F(DaemonDelivery, TheDepthScaleKeyReachesADepthPngDirectory) {
+  const std::filesystem::path frames = dir_ / "pngs_scaled";
+  std::filesystem::create_directories(frames);
+  const core::DepthImage depth(64, 48, uint16_t{4500});  // TUM units: 0.9 m
+  for (int i = 0; i < 2; ++i) {
+    io::WriteDepthPng((frames / ("00000" + std::to_string(i) + "-depth.png")).string(), depth);
+  }
+  std::vector<std::string> argv = Args("memq://", {"--set", "camera.depth_scale_mm=0.0001"});
+  argv[2] = frames.string();
+  std::string err;
+  EXPECT_EQ(testutil::Run(argv, seconds(60), &err), kExitFailure) << err;
+  EXPECT_NE(err.find("was empty"), std::string::npos) << err;
+  argv = Args("memq://", {"--set", "camera.depth_scale_mm=0.2"});
+  argv[2] = frames.string();
+  EXPECT_EQ(testutil::Run(argv, seconds(60), &err), kExitOk) << err;
+}
+
+// camera.intrinsics_file replaces a recording's field of view: a calibration of the same
+// aspect ratio is used (and said so), another aspect ratio or an unreadable file is refused.
+TEST_F(DaemonDelivery, CalibratedIntrinsicsReplaceTheRecordingsFieldOfView) {
+  const auto write = [](const std::string& path, const std::string& json) {
+    std::FILE* f = std::fopen(path.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs(json.c_str(), f);
+    std::fclose(f);
+  };
+  const std::string good = Scratch("calibrated.json");
+  write(good, R"({"fx": 1050.0, "fy": 1050.0, "cx": 639.5, "cy": 479.5, "width": 1280,
+                  "height": 960})");
+  std::string err;
+  EXPECT_EQ(testutil::Run(Args("memq://",
+                               {"--set", "camera.intrinsics_file=" + good, "--log-level", "debug"}),
+                          seconds(60), &err),
+            kExitOk)
+      << err;
+  EXPECT_NE(err.find("calibrated intrinsics"), std::string::npos) << err;
+
+  const std::string wide = Scratch("wide.json");
+  write(wide, R"({"fx": 600.0, "fy": 600.0, "cx": 639.5, "cy": 359.5, "width": 1280,
+                  "height": 720})");
+  err.clear();
+  EXPECT_EQ(testutil::Run(Args("memq://", {"--set", "camera.intrinsics_file=" + wide}), seconds(60),
+                          &err),
+            kExitSourceUnavailable)
+      << err;
+  EXPECT_NE(err.find("another aspect ratio"), std::string::npos) << err;
+
+  err.clear();
+  EXPECT_EQ(
+      testutil::Run(Args("memq://", {"--set", "camera.intrinsics_file=" + Scratch("missing.json")}),
+                    seconds(60), &err),
+      kExitUsage)
+      << err;
+  EXPECT_NE(err.find("camera.intrinsics_file"), std::string::npos) << err;
 }
 
 TEST_F(DaemonDelivery, NegativeCountsOnTheCommandLineAreUsageErrors) {

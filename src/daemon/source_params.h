@@ -1,0 +1,37 @@
+#pragma once
+
+#include <string>
+
+namespace clutterseg::daemon {
+
+/// How the frame source is set up beyond its name (key `source`). YAML section `camera`.
+/// The device keys apply to a live OpenNI2 camera; the depth scale to directories of depth
+/// PNGs; the intrinsics file to every source but the synthetic one. Ranges of the device keys
+/// are those of drivers::OpenNI2SourceOptions, checked when the source is made.
+struct SourceParams {
+  /// camera.serial: open the OpenNI2 device with this serial number ("" = the first device,
+  /// or the one `source: device:URI` names). Not with a URI.
+  std::string serial;
+  int width{640};   ///< camera.width: live depth (and colour) resolution, px
+  int height{480};  ///< camera.height
+  int fps{30};      ///< camera.fps: live capture rate, frames per second
+  /// camera.color: stream colour from a camera / recording, load colour PNGs beside depth.
+  bool color{true};
+  /// camera.registration: register depth to colour on the device (when it can).
+  bool registration{true};
+  /// camera.intrinsics_file: a JSON file with fx, fy, cx, cy (px) and optionally width,
+  /// height (see io::ReadIntrinsicsJson) replacing the source's own intrinsics: a calibrated
+  /// camera's instead of those derived from its field of view, a depth-PNG directory's instead
+  /// of the *.json found in it, a PCD directory's instead of those fitted to its clouds.
+  /// Scaled to the frames' resolution when it is given for another of the same aspect ratio.
+  /// "" = the source's own.
+  std::string intrinsics_file;
+  /// camera.depth_scale_mm: millimetres per unit of a depth PNG: 1 for millimetre PNGs
+  /// (Kinect / Xtion / RealSense exports), 0.2 for TUM RGB-D (value / 5000 = metres).
+  double depth_scale_mm{1.0};
+
+  /// @throws std::invalid_argument naming the key (`camera.<field>`) and value.
+  void ValidateOrThrow() const;
+};
+
+}  // namespace clutterseg::daemon
