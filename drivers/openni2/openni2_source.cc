@@ -519,8 +519,11 @@ struct OpenNI2Source::Impl {
       calibrated = true;
       return;
     }
-    const double hfov = depth_stream.getHorizontalFieldOfView();
-    const double vfov = depth_stream.getVerticalFieldOfView();
+    // Depth registered to colour is in the colour camera's image: its field of view is the
+    // colour stream's (as openni2_camera does), not the depth sensor's.
+    openni::VideoStream& fov_stream = registered ? color_stream : depth_stream;
+    const double hfov = fov_stream.getHorizontalFieldOfView();
+    const double vfov = fov_stream.getVerticalFieldOfView();
     if (hfov == 0.0 && vfov == 0.0) {
       // No field of view reported (a recording without xnFOV, some drivers).
       intr = core::DefaultKinectIntrinsics().Scaled(w, h);

@@ -66,7 +66,9 @@ void ShutdownOpenNI2();
 ///
 /// Frames carry depth in millimetres (DEPTH_1_MM; DEPTH_100_UM is converted), colour RGB888
 /// when enabled and of the depth's size, the device timestamp in microseconds as `utime`,
-/// and intrinsics derived from the stream's field of view: fx = W / (2 tan(hfov / 2)),
+/// and intrinsics derived from a field of view (the depth stream's; the colour stream's when
+/// depth is registered to colour on a live camera, since the depth image is then the colour
+/// camera's), unless `intrinsics` gives calibrated ones: fx = W / (2 tan(hfov / 2)),
 /// fy = H / (2 tan(vfov / 2)), cx = W / 2 - 0.5, cy = H / 2 - 0.5 (pixel-centre convention;
 /// OpenNI2's own converter uses W / 2, half a pixel away). The intrinsics are checked with
 /// core::CameraIntrinsics::ValidateOrThrow (a field of view of 10..150 degrees): a recording

@@ -4,6 +4,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "clutterseg/config/camera_info.h"
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/io/png_io.h"
@@ -41,12 +42,16 @@ bool HasPcdFiles(const std::filesystem::path& dir) {
                               "this binary");
 }
 
-// The intrinsics of camera.intrinsics_file, unset when it is "". @throws
+// The intrinsics of camera.intrinsics_file (a ROS camera_info *.yaml / *.yml, else an
+// intrinsics JSON), unset when it is "". @throws
 // std::invalid_argument naming the key and the file when it cannot be read or is implausible.
 std::optional<core::CameraIntrinsics> IntrinsicsOf(const SourceParams& camera) {
   if (camera.intrinsics_file.empty()) return std::nullopt;
   try {
-    core::CameraIntrinsics k = io::ReadIntrinsicsJson(camera.intrinsics_file);
+    const std::filesystem::path ext = std::filesystem::path(camera.intrinsics_file).extension();
+    core::CameraIntrinsics k = ext == ".yaml" || ext == ".yml"
+                                   ? config::ReadCameraInfoYaml(camera.intrinsics_file)
+                                   : io::ReadIntrinsicsJson(camera.intrinsics_file);
     k.ValidateOrThrow("camera.intrinsics_file");
     return k;
   } catch (const std::exception& e) {

@@ -19,10 +19,11 @@ struct SourceParams {
   bool color{true};
   /// camera.registration: register depth to colour on the device (when it can).
   bool registration{true};
-  /// camera.intrinsics_file: a JSON file with fx, fy, cx, cy (px) and optionally width,
-  /// height (see io::ReadIntrinsicsJson) replacing the source's own intrinsics: a calibrated
-  /// camera's instead of those derived from its field of view, a depth-PNG directory's instead
-  /// of the *.json found in it, a PCD directory's instead of those fitted to its clouds.
+  /// camera.intrinsics_file: a ROS camera_info calibration (*.yaml / *.yml, see
+  /// config::ReadCameraInfoYaml) or a JSON file with fx, fy, cx, cy (px) and optionally
+  /// width, height (see io::ReadIntrinsicsJson), replacing the source's own intrinsics: a
+  /// calibrated camera's instead of those derived from its field of view, a depth-PNG directory's
+  /// instead of the *.json found in it, a PCD directory's instead of those fitted to its clouds.
   /// Scaled to the frames' resolution when it is given for another of the same aspect ratio.
   /// "" = the source's own.
   std::string intrinsics_file;

@@ -362,6 +362,18 @@ TEST_F(DaemonDelivery, CalibratedIntrinsicsReplaceTheRecordingsFieldOfView) {
       << err;
   EXPECT_NE(err.find("calibrated intrinsics"), std::string::npos) << err;
 
+  // The same calibration as a ROS camera_info file.
+  const std::string info = Scratch("calibrated.yaml");
+  write(info,
+        "image_width: 1280\nimage_height: 960\ncamera_matrix:\n  rows: 3\n  cols: 3\n"
+        "  data: [1050, 0, 639.5, 0, 1050, 479.5, 0, 0, 1]\n");
+  err.clear();
+  EXPECT_EQ(testutil::Run(Args("memq://", {"--set", "camera.intrinsics_file=" + info}), seconds(60),
+                          &err),
+            kExitOk)
+      << err;
+  EXPECT_NE(err.find("calibrated intrinsics"), std::string::npos) << err;
+
   const std::string wide = Scratch("wide.json");
   write(wide, R"({"fx": 600.0, "fy": 600.0, "cx": 639.5, "cy": 359.5, "width": 1280,
                   "height": 720})");
