@@ -6,8 +6,12 @@
 //
 // GT and PRED are two PCD files with a label field (points matched by index), or two
 // directories whose *.pcd files are matched by name. stdout: a per-frame table and a summary
-// (unless --quiet), then, as the last line, one JSON object. Exit codes: 0 ok, 1 I/O or data
-// error, 2 bad command line.
+// (unless --quiet), then, as the last line, one JSON object. A pair that cannot be scored (a
+// file that cannot be read, no label field, different point counts or image layouts) is
+// reported on stderr and left out; the others are still scored, the JSON line then carries
+// "failed": N and the exit code is 5. Exit codes (core/exit_codes.h): 0 ok, 5 some pairs
+// could not be scored (the others were), 1 I/O or data error (no pair could be scored), 2 bad
+// command line.
 
 #include <unistd.h>
 
@@ -29,6 +33,7 @@
 #include "clutterseg/eval/metrics.h"
 #include "clutterseg/eval/report.h"
 #include "clutterseg/io/pcd.h"
+#include "clutterseg/version.h"
 
 namespace fs = std::filesystem;
 
@@ -36,7 +41,8 @@ namespace clutterseg::eval {
 namespace {
 
 constexpr int kExitOk = 0;
-constexpr int kExitUsage = 2;  // I/O and data errors (1) are reported by main()
+constexpr int kExitUsage = 2;       // I/O and data errors (1) are reported by main()
+constexpr int kExitIncomplete = 5;  // some pairs could not be scored (core/exit_codes.h)
 
 // A command-line problem found after parsing (exit code 2).
 class UsageError : public std::runtime_error {
@@ -158,6 +164,14 @@ void LoadPair(const FramePair& pair, core::PointCloud* gt, core::PointCloud* pre
                                std::to_string(gt->size()) + " points, prediction '" +
                                pair.pred.string() + "' has " + std::to_string(pred->size()));
     }
+    // Points are matched by index: two organized clouds must share the image layout.
+    if (gt->organized() && pred->organized() &&
+        (gt->width != pred->width || gt->height != pred->height)) {
+      throw std::runtime_error("image layouts differ: ground truth '" + pair.gt.string() + "' is " +
+                               std::to_string(gt->width) + "x" + std::to_string(gt->height) +
+                               ", prediction '" + pair.pred.string() + "' is " +
+                               std::to_string(pred->width) + "x" + std::to_string(pred->height));
+    }
   }
 }
 
@@ -228,6 +242,7 @@ int Run(int argc, char** argv) {
   app.add_flag("--allow-missing", opt.allow_missing,
                "score a ground-truth file without prediction as an empty prediction");
   app.add_flag("--quiet,-q", opt.quiet, "print only the JSON line on stdout");
+  app.set_version_flag("--version", std::string("clutterseg-eval ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -266,18 +281,31 @@ int Run(int argc, char** argv) {
   }
 
   FrameEvaluator evaluator(params);
-  std::vector<FrameMetrics> frames(pairs.size());
+  std::vector<FrameMetrics> frames;
+  std::vector<FramePair> scored_pairs;
   core::PointCloud gt;
   core::PointCloud pred;
   int missing = 0;
+  int failed = 0;
   double eval_ms = 0.0;
   {
     Progress progress(pairs.size(), fs::is_directory(opt.gt_path));
     for (size_t i = 0; i < pairs.size(); ++i) {
       progress.Show(i, pairs[i].name);
-      LoadPair(pairs[i], &gt, &pred);
+      try {
+        LoadPair(pairs[i], &gt, &pred);
+      } catch (const std::exception& e) {
+        // Reported and left out; the other pairs are still scored.
+        ++failed;
+        progress.Clear();
+        std::fprintf(stderr, "clutterseg-eval: cannot score '%s': %s\n", pairs[i].name.c_str(),
+                     e.what());
+        continue;
+      }
+      FrameMetrics& m = frames.emplace_back();
+      scored_pairs.push_back(pairs[i]);
       const auto t0 = std::chrono::steady_clock::now();
-      evaluator.Evaluate(gt, pred, &frames[i]);
+      evaluator.Evaluate(gt, pred, &m);
       eval_ms +=
           std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
       if (pairs[i].missing) {
@@ -286,7 +314,7 @@ int Run(int argc, char** argv) {
         std::fprintf(stderr, "clutterseg-eval: no prediction for '%s', scored as empty\n",
                      pairs[i].gt.string().c_str());
       }
-      if (csv.is_open()) csv << CsvRow(pairs[i].name, frames[i], pairs[i].missing) << '\n';
+      if (csv.is_open()) csv << CsvRow(pairs[i].name, m, pairs[i].missing) << '\n';
     }
     progress.Show(pairs.size(), "");
   }
@@ -297,11 +325,23 @@ int Run(int argc, char** argv) {
 
   const Summary summary = Summarize(frames);
   if (!opt.quiet) {
-    PrintTable(pairs, frames);
+    PrintTable(scored_pairs, frames);
     PrintSummary(summary, params, missing, eval_ms);
   }
-  std::printf("%s\n", SummaryToJson(summary, params, missing).c_str());
-  std::fflush(stdout);
+  std::string json = SummaryToJson(summary, params, missing);
+  if (failed > 0 && !json.empty() && json.back() == '}') {
+    json.insert(json.size() - 1, ",\"failed\":" + std::to_string(failed));
+  }
+  std::printf("%s\n", json.c_str());
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) != 0) {
+    std::fprintf(stderr, "clutterseg-eval: cannot write the results to stdout\n");
+    return 1;
+  }
+  if (failed > 0) {
+    std::fprintf(stderr, "clutterseg-eval: %d of %zu pair(s) could not be scored\n", failed,
+                 pairs.size());
+    return frames.empty() ? 1 : kExitIncomplete;
+  }
   return kExitOk;
 }
 

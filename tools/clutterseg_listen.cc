@@ -1,9 +1,17 @@
 // clutterseg-listen [--lcm-url URL] [--png DIR] [--count N]
 // Prints every objects_t (and status_t) the daemon publishes; with --png, writes each
 // label_image_t as a colour PNG (one colour per object id).
+//
+// Every message is checked against its own length before it is decoded (lcm-gen's decoders
+// allocate each array at the size the message declares) and label images against the frame
+// limits (core::FrameLimits): a malformed or hostile message is reported on stderr and
+// skipped, never an allocation. Exit codes (core/exit_codes.h): 0, 5 when a message was
+// rejected or a label PNG could not be written (each named on stderr), 1 an LCM error, 2 bad
+// command line, 4 LCM unavailable.
 #include <signal.h>
 
 #include <atomic>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -19,11 +27,129 @@
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/status_t.hpp"
+#include "clutterseg/version.h"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop.store(true); }
+
+// A bounds check of LCM's wire format (big-endian; a nested struct carries no hash) that
+// walks a message and verifies that every string and array it declares fits in the bytes
+// that follow, before lcm-gen's decode allocates them. Trailing bytes are allowed.
+class WireCheck {
+ public:
+  WireCheck(const uint8_t* data, size_t size) : data_(data), size_(size) {}
+
+  bool Skip(size_t n, const char* what) {
+    if (!ok_) return false;
+    if (n > size_ - pos_) return Bad(std::string(what) + " runs past the end of the message");
+    pos_ += n;
+    return true;
+  }
+  bool Int32(int32_t* value, const char* what) {
+    if (!Skip(4, what)) return false;
+    const uint8_t* p = data_ + pos_ - 4;
+    *value = static_cast<int32_t>((uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) |
+                                  (uint32_t{p[2]} << 8) | uint32_t{p[3]});
+    return true;
+  }
+  bool String(const char* what) {
+    int32_t len = 0;
+    if (!Int32(&len, what)) return false;
+    if (len < 1) return Bad(std::string(what) + " has length " + std::to_string(len));
+    return Skip(static_cast<size_t>(len), what);
+  }
+  // A count of elements of at least `min_bytes` each that must fit in what is left.
+  bool Count(int32_t* count, size_t min_bytes, const char* what) {
+    if (!Int32(count, what)) return false;
+    if (*count < 0 || static_cast<uint64_t>(*count) * min_bytes > size_ - pos_) {
+      return Bad(std::string(what) + " = " + std::to_string(*count) + " does not fit in the " +
+                 std::to_string(size_ - pos_) + " bytes left");
+    }
+    return true;
+  }
+  bool Strings(int32_t count, const char* what) {
+    for (int32_t i = 0; i < count; ++i) {
+      if (!String(what)) return false;
+    }
+    return ok_;
+  }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  bool Bad(std::string why) {
+    if (ok_) problem_ = std::move(why);
+    ok_ = false;
+    return false;
+  }
+  const uint8_t* data_;
+  size_t size_;
+  size_t pos_{0};
+  bool ok_{true};
+  std::string problem_;
+};
+
+// The walks below follow lcmtypes/clutterseg/*.lcm field by field; keep them in step with
+// the types (tests/daemon/label_bounds_test.cc publishes every type with all its arrays
+// filled and fails when a walk rejects a well-formed message).
+// Encoded sizes of the fixed-size structs and parts.
+constexpr size_t kIntrinsicsBytes = 4 + 4 + 4 * 8;
+constexpr size_t kPlaneBytes = 4 + 3 * 4 + 4 + 4 + 1;
+// object_t up to num_samples: geometry, support, colour, confidence, image box, track.
+constexpr size_t kObjectFixedBytes =
+    4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 + 3 + 4 + 4 * 4 + 8 + 4 + 4 + 1 + 1;
+constexpr size_t kLostTrackBytes = 8 + 4 + 4 + 4 + 1 + 4 + 5 * 3 * 4;
+
+// stage_times_t: num_stages, stage_names[], stage_ms[], total_ms.
+bool CheckStageTimes(WireCheck* w) {
+  int32_t n = 0;
+  return w->Count(&n, 5 + 4, "times.num_stages") && w->Strings(n, "times.stage_names") &&
+         w->Skip(static_cast<size_t>(n) * 4 + 4, "times.stage_ms");
+}
+
+std::string CheckObjects(const uint8_t* data, size_t size) {
+  WireCheck w(data, size);
+  int32_t n = 0;
+  int32_t objects = 0;
+  if (w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
+      w.Skip(kIntrinsicsBytes, "intrinsics") && w.Count(&n, kPlaneBytes, "num_planes") &&
+      w.Skip(static_cast<size_t>(n) * kPlaneBytes, "planes") &&
+      w.Count(&objects, kObjectFixedBytes + 4, "num_objects")) {
+    for (int32_t i = 0; i < objects; ++i) {
+      if (!w.Skip(kObjectFixedBytes, "object") || !w.Count(&n, 12, "object.num_samples") ||
+          !w.Skip(static_cast<size_t>(n) * 12, "object.samples")) {
+        break;
+      }
+    }
+  }
+  w.Count(&n, kLostTrackBytes, "num_lost_tracks") &&
+      w.Skip(static_cast<size_t>(n) * kLostTrackBytes, "lost_tracks") &&
+      w.Count(&n, 8, "num_ended_tracks") && w.Skip(static_cast<size_t>(n) * 8, "ended_track_ids") &&
+      w.Skip(1 + 4 + 4, "tracks_reset and counts") && CheckStageTimes(&w) &&
+      w.Skip(4 + 4 + 4, "times");
+  return w.problem();
+}
+
+std::string CheckLabels(const uint8_t* data, size_t size) {
+  WireCheck w(data, size);
+  int32_t n = 0;
+  w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
+      w.Skip(4 + 4 + 1, "size") && w.Count(&n, 1, "size") && w.Skip(static_cast<size_t>(n), "data");
+  return w.problem();
+}
+
+std::string CheckStatus(const uint8_t* data, size_t size) {
+  WireCheck w(data, size);
+  int32_t n = 0;
+  w.Skip(8, "utime") && w.String("camera_name") && w.String("source") && w.String("version") &&
+      w.Skip(8, "instance_id") && w.String("hostname") && w.Skip(4, "pid") &&
+      w.Skip(8 * 4, "rates") && w.Count(&n, 5 + 4 + 4, "num_stages") &&
+      w.Strings(n, "stage_names") &&
+      w.Skip(static_cast<size_t>(n) * 8 + 4 + 4 + 13 * 8 + 4 + 1, "counters") &&
+      w.String("device_state_name") && w.Skip(4, "reconnect_attempts") && w.String("last_error");
+  return w.problem();
+}
 
 struct Listener {
   std::string png_dir;
@@ -32,6 +158,8 @@ struct Listener {
   bool count_reached{false};
   int64_t last_seq{-1};
   bool quiet_status{false};
+  uint64_t rejected{0};      // messages that failed the checks or the decode
+  uint64_t png_failures{0};  // label PNGs that could not be written
   clutterseg::core::LabelImage labels;
   clutterseg::core::ColorImage image;
 
@@ -71,14 +199,51 @@ struct Listener {
     if (png_dir.empty()) return;
     try {
       clutterseg::daemon::DecodeLabelImage(*m, &labels);
+    } catch (const std::exception& e) {
+      ++rejected;
+      std::fprintf(stderr, "clutterseg-listen: frame %lld: rejected its label image: %s\n",
+                   static_cast<long long>(m->frame_seq), e.what());
+      return;
+    }
+    try {
       clutterseg::pipeline::RenderOverlay(labels, nullptr, &image);
       char name[64];
       std::snprintf(name, sizeof(name), "/labels_%06lld.png", static_cast<long long>(m->frame_seq));
       clutterseg::io::WriteColorPng(png_dir + name, image);
     } catch (const std::exception& e) {
+      ++png_failures;
       std::fprintf(stderr, "clutterseg-listen: frame %lld: %s\n",
                    static_cast<long long>(m->frame_seq), e.what());
     }
+  }
+
+  // Checks, decodes and dispatches one message of type `Message`; rejected messages are
+  // reported and counted.
+  template <typename Message, typename Check, typename Handle>
+  void Receive(std::string_view channel, const uint8_t* data, size_t size, Check check,
+               Handle handle, Message* message) {
+    std::string problem;
+    if (size < 8 || size > static_cast<size_t>(INT32_MAX)) {
+      problem = "message of " + std::to_string(size) + " bytes";
+    } else {
+      problem = check(data + 8, size - 8);  // after the type hash
+    }
+    if (problem.empty()) {
+      try {
+        if (message->decode(data, 0, static_cast<int>(size)) < 0) {
+          problem = "does not decode as " + std::string(Message::getTypeName());
+        }
+      } catch (const std::exception& e) {  // lcm-gen's decoders throw on some malformed input
+        problem = std::string("does not decode as ") + Message::getTypeName() + ": " + e.what();
+      }
+    }
+    if (!problem.empty()) {
+      ++rejected;
+      std::fprintf(stderr, "clutterseg-listen: %.*s: rejected a message of %zu bytes: %s\n",
+                   static_cast<int>(channel.size()), channel.data(), size, problem.c_str());
+      return;
+    }
+    handle(*message);
   }
 
   void OnStatus(std::string_view channel, const clutterseg::status_t& msg) {
@@ -115,12 +280,21 @@ int main(int argc, char** argv) {
   app.add_option("--labels-channel", labels_channel, "label_image_t channel");
   app.add_option("--status-channel", status_channel, "status_t channel");
   app.add_flag("--no-status", listener.quiet_status, "do not print status_t messages");
+  app.set_version_flag("--version", std::string("clutterseg-listen ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e) == 0 ? 0 : 2;
   }
-  if (!listener.png_dir.empty()) std::filesystem::create_directories(listener.png_dir);
+  if (!listener.png_dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(listener.png_dir, ec);
+    if (!std::filesystem::is_directory(listener.png_dir)) {
+      std::fprintf(stderr, "clutterseg-listen: cannot create --png directory '%s': %s\n",
+                   listener.png_dir.c_str(), ec ? ec.message().c_str() : "not a directory");
+      return 1;
+    }
+  }
   std::unique_ptr<clutterseg::daemon::LcmBus> bus;
   try {
     bus = std::make_unique<clutterseg::daemon::LcmBus>(url);
@@ -128,16 +302,27 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "clutterseg-listen: %s\n", e.what());
     return 4;
   }
+  clutterseg::objects_t objects;
+  clutterseg::label_image_t labels;
+  clutterseg::status_t status;
   try {
-    bus->Subscribe<clutterseg::objects_t>(
-        objects_channel, [&listener](std::string_view channel, const clutterseg::objects_t& m) {
-          listener.OnObjects(channel, m);
+    bus->SubscribeRaw(
+        objects_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
+          listener.Receive(
+              channel, data, size, CheckObjects,
+              [&](const clutterseg::objects_t& m) { listener.OnObjects(channel, m); }, &objects);
         });
-    bus->Subscribe<clutterseg::label_image_t>(
-        labels_channel, [&listener](const clutterseg::label_image_t& m) { listener.OnLabels(m); });
-    bus->Subscribe<clutterseg::status_t>(
-        status_channel, [&listener](std::string_view channel, const clutterseg::status_t& m) {
-          listener.OnStatus(channel, m);
+    bus->SubscribeRaw(
+        labels_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
+          listener.Receive(
+              channel, data, size, CheckLabels,
+              [&](const clutterseg::label_image_t& m) { listener.OnLabels(m); }, &labels);
+        });
+    bus->SubscribeRaw(
+        status_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
+          listener.Receive(
+              channel, data, size, CheckStatus,
+              [&](const clutterseg::status_t& m) { listener.OnStatus(channel, m); }, &status);
         });
     signal(SIGINT, OnSignal);
     signal(SIGTERM, OnSignal);
@@ -150,9 +335,13 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "clutterseg-listen: error: %s\n", e.what());
     return 1;
   }
-  if (bus->decode_failures() > 0) {
-    std::fprintf(stderr, "clutterseg-listen: %llu message(s) could not be decoded\n",
-                 static_cast<unsigned long long>(bus->decode_failures()));
+  if (listener.rejected > 0) {
+    std::fprintf(stderr, "clutterseg-listen: %llu message(s) rejected\n",
+                 static_cast<unsigned long long>(listener.rejected));
   }
-  return 0;
+  if (listener.png_failures > 0) {
+    std::fprintf(stderr, "clutterseg-listen: %llu label PNG(s) could not be written\n",
+                 static_cast<unsigned long long>(listener.png_failures));
+  }
+  return listener.rejected > 0 || listener.png_failures > 0 ? 5 : 0;  // kExitIncomplete
 }

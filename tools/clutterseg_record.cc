@@ -29,6 +29,7 @@
 #include "clutterseg/drivers/oni/oni_writer.h"
 #include "clutterseg/drivers/openni2/openni2_source.h"
 #include "clutterseg/drivers/replay/pcd_directory_source.h"
+#include "clutterseg/version.h"
 
 namespace clutterseg::tools {
 namespace {
@@ -309,6 +310,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   app.add_option("--fy", a.fy, "vertical focal length for --from-pcd (default: fx)")
       ->check(CLI::PositiveNumber);
+  app.set_version_flag("--version", std::string("clutterseg-record ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

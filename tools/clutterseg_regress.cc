@@ -8,6 +8,7 @@
 #include <CLI/CLI.hpp>
 
 #include "clutterseg/daemon/regress.h"
+#include "clutterseg/version.h"
 
 int main(int argc, char** argv) {
   clutterseg::daemon::RegressOptions options;
@@ -21,6 +22,7 @@ int main(int argc, char** argv) {
                  "minimum mean mask IoU of matched objects per frame (default 0.9)");
   app.add_option("--objects-channel", options.objects_channel, "objects_t channel");
   app.add_option("--labels-channel", options.labels_channel, "label_image_t channel");
+  app.set_version_flag("--version", std::string("clutterseg-regress ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

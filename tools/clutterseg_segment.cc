@@ -1,13 +1,26 @@
 // clutterseg-segment: segments point clouds (PCD, organized or not) or depth PNGs into objects
 // and writes a labelled PCD, the objects as JSON and an overlay PNG.
+//
+// Outputs are checked before anything is read: an output that is one of the inputs (the
+// same file, also through a link), an output written twice, or (without --force) an existing
+// output file is refused. Every write is checked (a full disk is an error; a partly written
+// output is removed). An input that cannot be read is reported and counted and the others
+// are still segmented. Exit codes (core/exit_codes.h): 0 every frame segmented and written;
+// 5 finished, but some input could not be read or some output could not be written (each
+// named on stderr, counted in the summary); 1 no input could be read, or no frame had a
+// valid point; 2 bad command line or refused outputs; 3 the input does not exist.
+
+#include <fcntl.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
 #include <memory>
 #include <mutex>
@@ -18,6 +31,7 @@
 #include <CLI/CLI.hpp>
 
 #include "clutterseg/config/segmenter_keys.h"
+#include "clutterseg/core/exit_codes.h"
 #include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/core/thread_pool.h"
@@ -31,10 +45,6 @@ namespace fs = std::filesystem;
 using namespace clutterseg;
 
 namespace {
-
-constexpr int kExitOk = 0;
-constexpr int kExitData = 1;
-constexpr int kExitUsage = 2;
 
 struct Options {
   std::string input;
@@ -51,6 +61,7 @@ struct Options {
   int lanes{0};
   int png_scale{1};
   bool quiet{false};
+  bool force{false};
 };
 
 // `in` made `factor` times smaller in each direction, each pixel the mean of its factor x factor
@@ -74,6 +85,28 @@ void Shrink(const core::ColorImage& in, int factor, core::ColorImage* out) {
           core::Rgb8{static_cast<uint8_t>((r + n / 2) / n), static_cast<uint8_t>((g + n / 2) / n),
                      static_cast<uint8_t>((b + n / 2) / n)};
     }
+  }
+}
+
+// Writes `text` to `path` (created or truncated), checking every write and the close.
+void WriteTextFile(const std::string& path, const std::string& text) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) throw std::runtime_error(path + ": cannot open for writing: " + std::strerror(errno));
+  const char* p = text.data();
+  size_t left = text.size();
+  while (left > 0) {
+    const ssize_t w = ::write(fd, p, left);
+    if (w < 0) {
+      if (errno == EINTR) continue;
+      const std::string why = std::strerror(errno);
+      ::close(fd);
+      throw std::runtime_error(path + ": write failed: " + why);
+    }
+    p += w;
+    left -= static_cast<size_t>(w);
+  }
+  if (::close(fd) != 0) {
+    throw std::runtime_error(path + ": write failed on close: " + std::strerror(errno));
   }
 }
 
@@ -128,9 +161,7 @@ void WriteObjectsJson(const std::string& path, const std::string& source,
   WriteStageTimes(r.times, "", &j);
   j.EndObject();
   j.EndObject();
-  std::ofstream f(path);
-  f << j.str() << "\n";
-  if (!f) throw std::runtime_error(path + ": cannot write objects JSON");
+  WriteTextFile(path, j.str() + "\n");
 }
 
 bool IsPng(const fs::path& p) { return p.extension() == ".png" || p.extension() == ".PNG"; }
@@ -141,7 +172,8 @@ void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
   if (IsPng(in)) {
     *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
                                               : io::ReadIntrinsicsJson(opt.intrinsics_file);
-    *cloud = io::ReadDepthPngCloud(in.string(), *intrinsics, opt.color_png, opt.depth_scale_to_mm);
+    *cloud = io::ReadDepthPngCloud(in.string(), *intrinsics, opt.color_png, opt.depth_scale_to_mm,
+                                   core::FrameLimits{});
     return;
   }
   // Organized or not (HEIGHT 1): the labels follow the input's points either way. The
@@ -153,6 +185,52 @@ void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
       (intrinsics->width != cloud->width || intrinsics->height != cloud->height)) {
     *intrinsics = intrinsics->Scaled(cloud->width, cloud->height);
   }
+}
+
+// One file the run reads or writes, for the checks before it starts.
+struct FileUse {
+  fs::path path;
+  std::string role;  // e.g. "input", "labelled cloud of a.pcd"
+};
+
+// The same file: equal paths after resolving links and "..", or the same inode.
+bool SameFile(const fs::path& a, const fs::path& b) {
+  std::error_code ec;
+  const fs::path ca = fs::weakly_canonical(a, ec);
+  const fs::path cb = fs::weakly_canonical(b, ec);
+  if (!ca.empty() && ca == cb) return true;
+  return fs::exists(a, ec) && fs::exists(b, ec) && fs::equivalent(a, b, ec);
+}
+
+// Refuses outputs that are inputs, outputs written twice and (without `force`) existing
+// output files; `appended` outputs (--times) may exist. Returns the problem, "" when none.
+std::string CheckOutputs(const std::vector<FileUse>& inputs, const std::vector<FileUse>& outputs,
+                         const std::vector<bool>& appended, bool force) {
+  for (size_t i = 0; i < outputs.size(); ++i) {
+    const FileUse& out = outputs[i];
+    for (const FileUse& in : inputs) {
+      if (SameFile(out.path, in.path)) {
+        return "the " + out.role + " '" + out.path.string() + "' is the " + in.role + " '" +
+               in.path.string() + "': refusing to overwrite an input";
+      }
+    }
+    for (size_t k = 0; k < i; ++k) {
+      if (SameFile(out.path, outputs[k].path)) {
+        return "'" + out.path.string() + "' would be written twice, as the " + outputs[k].role +
+               " and as the " + out.role;
+      }
+    }
+    std::error_code ec;
+    const fs::file_status st = fs::status(out.path, ec);
+    if (fs::is_directory(st)) {
+      return "the " + out.role + " '" + out.path.string() + "' is a directory";
+    }
+    if (fs::is_regular_file(st) && !force && !appended[i]) {
+      return "the " + out.role + " '" + out.path.string() +
+             "' exists; use --force to overwrite existing outputs";
+    }
+  }
+  return "";
 }
 
 }  // namespace
@@ -190,6 +268,7 @@ int main(int argc, char** argv) {
                  "or more)")
       ->check(CLI::Range(0, 64));
   app.add_option("--times", opt.times_out, "append per-frame stage times as JSON lines");
+  app.add_flag("--force", opt.force, "overwrite existing output files");
   app.add_flag("-q,--quiet", opt.quiet, "print only the final JSON line");
   try {
     app.parse(argc, argv);
@@ -234,10 +313,7 @@ int main(int argc, char** argv) {
     });
     if (inputs.empty()) {
       std::cerr << "clutterseg-segment: " << opt.input << ": no .pcd or .png files\n";
-      return kExitData;
-    }
-    for (const std::string& d : {opt.output, opt.json_out, opt.png_out}) {
-      if (!d.empty()) fs::create_directories(d, ec);
+      return kExitSourceUnavailable;
     }
     for (const fs::path& p : inputs) {
       const std::string stem = p.stem().string();
@@ -249,9 +325,53 @@ int main(int argc, char** argv) {
   } else {
     if (!fs::exists(opt.input, ec)) {
       std::cerr << "clutterseg-segment: " << opt.input << ": no such file\n";
-      return kExitData;
+      return kExitSourceUnavailable;
     }
     jobs.push_back(Job{opt.input, opt.output, opt.json_out, opt.png_out});
+  }
+
+  // Nothing is written over an input, twice, or (without --force) over an existing file.
+  {
+    std::vector<FileUse> inputs;
+    std::vector<FileUse> outputs;
+    std::vector<bool> appended;
+    for (const Job& job : jobs) inputs.push_back({job.in, "input"});
+    if (!opt.intrinsics_file.empty()) inputs.push_back({opt.intrinsics_file, "--intrinsics file"});
+    if (!opt.color_png.empty()) inputs.push_back({opt.color_png, "--color input"});
+    if (!opt.config_file.empty()) inputs.push_back({opt.config_file, "--config file"});
+    for (const Job& job : jobs) {
+      const std::string of = job.in.filename().string();
+      outputs.push_back({job.out, "labelled cloud of " + of});
+      appended.push_back(false);
+      if (!job.json.empty()) {
+        outputs.push_back({job.json, "JSON of " + of});
+        appended.push_back(false);
+      }
+      if (!job.png.empty()) {
+        outputs.push_back({job.png, "overlay PNG of " + of});
+        appended.push_back(false);
+      }
+    }
+    if (!opt.times_out.empty()) {
+      outputs.push_back({opt.times_out, "--times file"});
+      appended.push_back(true);
+    }
+    const std::string problem = CheckOutputs(inputs, outputs, appended, opt.force);
+    if (!problem.empty()) {
+      std::cerr << "clutterseg-segment: " << problem << "\n";
+      return kExitUsage;
+    }
+  }
+  if (dir_mode) {
+    for (const std::string& d : {opt.output, opt.json_out, opt.png_out}) {
+      if (d.empty()) continue;
+      fs::create_directories(d, ec);
+      if (!fs::is_directory(d)) {
+        std::cerr << "clutterseg-segment: cannot create the output directory '" << d
+                  << "': " << (ec ? ec.message() : std::string("not a directory")) << "\n";
+        return kExitFailure;
+      }
+    }
   }
 
   // Frames are segmented on `lanes` lanes at once (pipeline::FrameRunner, each lane with its
@@ -272,41 +392,63 @@ int main(int argc, char** argv) {
     core::PointCloud cloud, view;
     core::LabelImage view_labels;
     core::ColorImage base, overlay, small;
-    std::string message;     // progress line or error
-    std::string times_line;  // --times JSON line
+    std::string message;       // progress line or error
+    std::string times_line;    // --times JSON line
+    bool write_failed{false};  // the frame failed writing its outputs (not reading its input)
   };
   std::vector<LaneBuffers> buffers(static_cast<size_t>(runner_params.pipeline_depth));
 
-  std::ofstream times;
-  if (!opt.times_out.empty()) times.open(opt.times_out, std::ios::app);
+  std::FILE* times = nullptr;
+  if (!opt.times_out.empty()) {
+    times = std::fopen(opt.times_out.c_str(), "a");
+    if (times == nullptr) {
+      std::cerr << "clutterseg-segment: " << opt.times_out
+                << ": cannot open for appending: " << std::strerror(errno) << "\n";
+      return kExitFailure;
+    }
+  }
+  bool times_failed = false;
   double total_ms = 0.0;
   size_t total_objects = 0;
-  int failures = 0;
+  int failures = 0;        // frames that failed, for any reason
+  int write_failures = 0;  // of which because an output could not be written
+  int empty_frames = 0;    // segmented, but no valid point in the depth range
   auto work = [&](const pipeline::FrameRunner::Lane& lane, uint64_t index) {
     const Job& job = jobs[index];
     LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
+    b.write_failed = false;
     core::CameraIntrinsics k;
     LoadInput(job.in, opt, &b.cloud, &k);
     pipeline::SegmentationResult& result = *lane.result;
     lane.segmenter->Process(b.cloud, k, &result);
     b.cloud.label = result.labels.data;
-    io::WritePcd(job.out.string(), b.cloud, io::PcdEncoding::kBinary);
-    if (!job.json.empty()) WriteObjectsJson(job.json.string(), job.in.string(), result);
-    if (!job.png.empty()) {
-      if (b.cloud.organized()) {
-        pipeline::CloudToImage(b.cloud, &b.base);
-        pipeline::RenderOverlay(result.labels, &b.base, &b.overlay);
-      } else {  // drawn through the intrinsics, for display only
-        pipeline::ProjectForDisplay(b.cloud, result.labels, k, &b.view, &b.view_labels);
-        pipeline::CloudToImage(b.view, &b.base);
-        pipeline::RenderOverlay(b.view_labels, &b.base, &b.overlay);
+    try {
+      io::WritePcd(job.out.string(), b.cloud, io::PcdEncoding::kBinary);
+      if (!job.json.empty()) WriteObjectsJson(job.json.string(), job.in.string(), result);
+      if (!job.png.empty()) {
+        if (b.cloud.organized()) {
+          pipeline::CloudToImage(b.cloud, &b.base);
+          pipeline::RenderOverlay(result.labels, &b.base, &b.overlay);
+        } else {  // drawn through the intrinsics, for display only
+          pipeline::ProjectForDisplay(b.cloud, result.labels, k, &b.view, &b.view_labels);
+          pipeline::CloudToImage(b.view, &b.base);
+          pipeline::RenderOverlay(b.view_labels, &b.base, &b.overlay);
+        }
+        if (opt.png_scale > 1) {
+          Shrink(b.overlay, opt.png_scale, &b.small);
+          io::WriteColorPng(job.png.string(), b.small);
+        } else {
+          io::WriteColorPng(job.png.string(), b.overlay);
+        }
       }
-      if (opt.png_scale > 1) {
-        Shrink(b.overlay, opt.png_scale, &b.small);
-        io::WriteColorPng(job.png.string(), b.small);
-      } else {
-        io::WriteColorPng(job.png.string(), b.overlay);
+    } catch (...) {
+      b.write_failed = true;
+      // No partly written output may look like a result.
+      std::error_code remove_ec;
+      for (const fs::path& p : {job.out, job.json, job.png}) {
+        if (!p.empty() && fs::is_regular_file(p, remove_ec)) fs::remove(p, remove_ec);
       }
+      throw;
     }
     core::JsonWriter j;
     j.BeginObject().Field("file", job.in.filename().string());
@@ -324,15 +466,27 @@ int main(int argc, char** argv) {
   auto done = [&](const pipeline::FrameRunner::Lane& lane, uint64_t index,
                   const std::string* error) {
     if (error != nullptr) {
-      std::cerr << "clutterseg-segment: " << *error << "\n";
+      const std::string in = jobs[index].in.string();
+      std::cerr << "clutterseg-segment: "
+                << (error->find(in) == std::string::npos ? in + ": " : std::string()) << *error
+                << "\n";
       ++failures;
+      write_failures += buffers[static_cast<size_t>(lane.index)].write_failed ? 1 : 0;
       return;
     }
-    (void)index;
     const LaneBuffers& b = buffers[static_cast<size_t>(lane.index)];
     total_ms += lane.result->times.total_ms;
     total_objects += lane.result->objects.size();
-    if (times.is_open()) times << b.times_line << "\n";
+    if (lane.result->num_valid_points == 0) {
+      ++empty_frames;
+      std::cerr << "clutterseg-segment: " << jobs[index].in.string()
+                << ": no valid point in the depth range " << params.points.min_depth_m << ".."
+                << params.points.max_depth_m << " m\n";
+    }
+    if (times != nullptr && !times_failed &&
+        std::fprintf(times, "%s\n", b.times_line.c_str()) < 0) {
+      times_failed = true;
+    }
     if (!opt.quiet) std::fprintf(stderr, "%s\n", b.message.c_str());
   };
   const auto wall_start = std::chrono::steady_clock::now();
@@ -346,10 +500,34 @@ int main(int argc, char** argv) {
   const double wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const int lanes = runner_params.pipeline_depth;
+  if (times != nullptr) {
+    const bool flushed = std::fflush(times) == 0 && std::ferror(times) == 0;
+    const int saved_errno = errno;
+    if (std::fclose(times) != 0 || !flushed || times_failed) {
+      std::cerr << "clutterseg-segment: " << opt.times_out
+                << ": write failed: " << std::strerror(saved_errno != 0 ? saved_errno : errno)
+                << "\n";
+      times_failed = true;
+    }
+  }
+  const int segmented = static_cast<int>(jobs.size()) - failures;
+  const int unreadable = failures - write_failures;
+  const bool all_empty = segmented > 0 && empty_frames == segmented;
+  if (failures > 0) {
+    std::cerr << "clutterseg-segment: " << failures << " of " << jobs.size()
+              << " frame(s) failed\n";
+  }
+  if (all_empty) {
+    std::cerr << "clutterseg-segment: every frame had no valid point in the depth range "
+              << params.points.min_depth_m << ".." << params.points.max_depth_m
+              << " m: check the input's depth unit (--depth-scale; TUM PNGs need 0.2) and "
+                 "segmenter.points\n";
+  }
 
   core::JsonWriter j;
   j.BeginObject().Field("frames", static_cast<uint64_t>(jobs.size()));
-  j.Field("failed", failures).Field("objects", static_cast<uint64_t>(total_objects));
+  j.Field("failed", failures).Field("empty", empty_frames);
+  j.Field("objects", static_cast<uint64_t>(total_objects));
   // mean_ms: segmentation time of one frame (latency); wall_ms_per_frame: elapsed time of the
   // whole run, loading and writing included, divided by the frames (throughput).
   j.Field("mean_ms", jobs.size() == static_cast<size_t>(failures)
@@ -358,5 +536,9 @@ int main(int argc, char** argv) {
   j.Field("wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size());
   j.Field("threads", threads_used).Field("lanes", lanes).EndObject();
   std::cout << j.str() << std::endl;
-  return failures == 0 ? kExitOk : kExitData;
+  const bool summary_written = static_cast<bool>(std::cout);
+  if (!summary_written) std::cerr << "clutterseg-segment: cannot write the summary to stdout\n";
+  if (unreadable == static_cast<int>(jobs.size()) || all_empty) return kExitFailure;
+  if (failures > 0 || times_failed || !summary_written) return kExitIncomplete;
+  return kExitOk;
 }

@@ -39,6 +39,7 @@
 #include "clutterseg/synth/scene.h"
 #include "clutterseg/synth/sensor_params.h"
 #include "clutterseg/synth/sequence.h"
+#include "clutterseg/version.h"
 
 #ifdef CLUTTERSEG_SYNTH_WITH_ONI
 #include "clutterseg/drivers/oni/oni_writer.h"
@@ -350,6 +351,7 @@ int Run(int argc, char** argv) {
   app.add_option("--threads", opt.threads, "render threads (0 = all cores)")
       ->check(CLI::Range(0, 256));
   app.add_flag("--verbose,-v", opt.verbose, "print per-frame timing");
+  app.set_version_flag("--version", std::string("clutterseg-synth ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

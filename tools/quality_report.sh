@@ -26,8 +26,8 @@ fmt() {  # last JSON line of clutterseg-eval -> "WOv | P | R | F1 | segments"
 row() {  # name, then clutterseg-segment options
   local name=$1; shift
   local dir=$out/$(echo "$name" | tr -c 'a-zA-Z0-9\n' '_')
-  "$seg" "$data/mosd-learn" "$dir/mosd" -q "$@" > /dev/null
-  "$seg" "$out/synth30" "$dir/synth" -q "$@" > "$dir.segment.json"
+  "$seg" "$data/mosd-learn" "$dir/mosd" -q --force "$@" > /dev/null
+  "$seg" "$out/synth30" "$dir/synth" -q --force "$@" > "$dir.segment.json"
   local parts objects syn ms
   parts=$("$ev" "$data/mosd-learn" "$dir/mosd" --gt-convention mosd-parts -q | fmt)
   objects=$("$ev" "$data/mosd-learn" "$dir/mosd" --gt-convention mosd-objects -q | fmt)

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -265,10 +266,13 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
               const uint64_t w = ReadLe(value.data(), 4);
               const uint64_t h = ReadLe(value.data() + 4, 4);
               const uint64_t fps = ReadLe(value.data() + 8, 4);
-              if (w == 0 || h == 0 || w > 16384 || h > 16384 || fps > 10000) {
-                throw std::runtime_error(where + ": implausible xnMapOutputMode " +
-                                         std::to_string(w) + "x" + std::to_string(h) + "@" +
-                                         std::to_string(fps));
+              const std::optional<std::string> too_large =
+                  limits.frame.CheckImage(static_cast<int64_t>(w), static_cast<int64_t>(h), 1);
+              if (too_large || fps > 10000) {
+                throw std::runtime_error(
+                    where + ": implausible xnMapOutputMode " + std::to_string(w) + "x" +
+                    std::to_string(h) + "@" + std::to_string(fps) +
+                    (too_large ? " (" + *too_large + ")" : std::string(" (fps above 10000)")));
               }
               n.width = static_cast<int>(w);
               n.height = static_cast<int>(h);
@@ -320,6 +324,10 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
                                    " bytes exceeds the limit " +
                                    std::to_string(limits.max_frame_bytes));
         }
+        if (info.frames.size() >= limits.max_frame_records) {
+          throw std::runtime_error(where + ": more than " +
+                                   std::to_string(limits.max_frame_records) + " frame records");
+        }
         ++n.data_records;
         info.frames.push_back(f);
         break;
@@ -337,10 +345,30 @@ OniFileInfo Parse(ByteSource* src, const std::string& name, const OniReadLimits&
         info.has_end = true;
         break;
       default:
-        break;  // unknown record types are skipped, as OpenNI2 does
+        ++info.unknown_records;  // skipped, as OpenNI2 does
+        break;
     }
     if (info.has_end) break;
     pos += record_size;
+  }
+  // A node's seek table is read where its NODE_ADDED says it is (as OpenNI2 does), also when
+  // the walk above ended before it (an END record too early).
+  for (OniNodeInfo& n : info.nodes) {
+    if (n.seek_table_offset == 0 || n.seek_table_entries != 0 || n.seek_table_offset > size ||
+        size - n.seek_table_offset < header_size) {
+      continue;
+    }
+    uint8_t rh[internal::kOniRecordHeaderSize];
+    src->Read(n.seek_table_offset, rh, header_size);
+    const auto fields_size = static_cast<uint32_t>(ReadLe(rh + 12, 4));
+    const auto payload_size = static_cast<uint32_t>(ReadLe(rh + 16, 4));
+    if (ReadLe(rh, 4) == internal::kOniRecordMagic &&
+        ReadLe(rh + 4, 4) == static_cast<uint32_t>(OniRecordType::kSeekTable) &&
+        ReadLe(rh + 8, 4) == n.id && fields_size >= header_size &&
+        uint64_t{fields_size} + payload_size <= size - n.seek_table_offset &&
+        payload_size % internal::kOniSeekEntrySize == 0) {
+      n.seek_table_entries = payload_size / internal::kOniSeekEntrySize;
+    }
   }
   return info;
 }

@@ -7,17 +7,29 @@
 #include <string>
 #include <vector>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/types.h"
 
 namespace clutterseg::drivers {
 
+/// Largest frame payload OpenNI2's OniFile player buffers (1600x1200 RGB888): OniWriter never
+/// writes larger frames and OniReader refuses them by default.
+inline constexpr uint32_t kOniFileMaxFrameBytes = 1600u * 1200u * 3u;
+
 /// Limits that protect OniReader against hostile files. Every size read from a file is
 /// checked against the file size and these limits before anything is allocated.
 struct OniReadLimits {
-  uint32_t max_fields_bytes{1u << 20};           ///< largest record header + fields
-  uint32_t max_string_bytes{4096};               ///< longest node or property name
-  size_t max_nodes{64};                          ///< most nodes in one file
-  uint32_t max_frame_bytes{1600u * 1200u * 3u};  ///< largest frame payload (OniFile's limit)
+  /// The frame limits every reader and writer shares: the resolution a node declares in
+  /// xnMapOutputMode must fit them as an image (checked with 1 byte per pixel; the payload
+  /// limit below is stricter).
+  core::FrameLimits frame;
+  uint32_t max_fields_bytes{1u << 20};              ///< largest record header + fields
+  uint32_t max_string_bytes{4096};                  ///< longest node or property name
+  size_t max_nodes{64};                             ///< most nodes in one file
+  uint32_t max_frame_bytes{kOniFileMaxFrameBytes};  ///< largest frame payload (OniFile's)
+  /// Most frame records indexed (about 9 hours of depth and colour at 30 fps): the index
+  /// costs 48 bytes per record.
+  size_t max_frame_records{size_t{1} << 21};
 };
 
 /// One node (stream) declared by NODE_ADDED, with the properties OpenNI2 replays.
@@ -37,12 +49,14 @@ struct OniNodeInfo {
   int64_t pixel_format{-1};  ///< oniPixelFormat, -1 when absent
   double hfov_rad{0.0};      ///< from xnFOV, 0 when absent
   double vfov_rad{0.0};
-  bool has_cropping{false};        ///< xnCropping present (OniFile delivers no frames without it)
-  bool state_ready{false};         ///< NODE_STATE_READY seen
-  bool data_begin{false};          ///< NODE_DATA_BEGIN seen
-  bool removed{false};             ///< NODE_REMOVED seen
-  uint32_t seek_table_entries{0};  ///< entries in the SEEK_TABLE payload, 0 when none
-  uint32_t data_records{0};        ///< NEW_DATA records seen
+  bool has_cropping{false};  ///< xnCropping present (OniFile delivers no frames without it)
+  bool state_ready{false};   ///< NODE_STATE_READY seen
+  bool data_begin{false};    ///< NODE_DATA_BEGIN seen
+  bool removed{false};       ///< NODE_REMOVED seen
+  /// Entries in the node's SEEK_TABLE payload (read at seek_table_offset when the walk did
+  /// not reach it), 0 when there is none or it is damaged.
+  uint32_t seek_table_entries{0};
+  uint32_t data_records{0};  ///< NEW_DATA records seen
   std::map<std::string, int64_t> int_properties;
   std::map<std::string, double> real_properties;
   std::map<std::string, std::string> string_properties;
@@ -70,6 +84,9 @@ struct OniFileInfo {
   std::vector<OniNodeInfo> nodes;
   std::vector<OniFrameRecord> frames;  ///< in file order, all nodes interleaved
   size_t record_count{0};
+  /// Records of a type this reader (and OpenNI2) does not know, skipped: a damaged file.
+  /// OpenNI2's player also loses the frame record that follows each of them.
+  size_t unknown_records{0};
   bool has_end{false};  ///< an END record was found (a finalized file)
 
   /// The first node of `type` (2 depth, 3 image), or nullptr.

@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/drivers/oni/oni_format.h"
 
 namespace clutterseg::drivers {
@@ -251,8 +252,10 @@ void OniWriter::Open(const std::string& path, int width, int height, int fps,
   if (m.file != nullptr) m.Fail("Open() called while " + m.path + " is still open");
   m = Impl{};
   m.path = path;
-  // OniFile buffers at most 1600x1200x3 bytes per frame.
-  if (width <= 0 || height <= 0 || width > 1600 || height > 1200) {
+  // OniFile buffers at most 1600x1200x3 bytes per frame (kOniFileMaxFrameBytes), which is
+  // also within core::FrameLimits, so OniReader reads back what is written here.
+  if (width <= 0 || height <= 0 || width > 1600 || height > 1200 ||
+      core::FrameLimits{}.CheckImage(width, height, 3)) {
     m.Fail("resolution " + std::to_string(width) + "x" + std::to_string(height) +
            " is outside 1x1 .. 1600x1200");
   }
@@ -271,6 +274,20 @@ void OniWriter::Open(const std::string& path, int width, int height, int fps,
       intrinsics.height > 0 ? intrinsics.fy * height / intrinsics.height : intrinsics.fy;
   m.hfov = 2.0 * std::atan(width / (2.0 * fx));
   m.vfov = 2.0 * std::atan(height / (2.0 * fy));
+  // Readers refuse a field of view no camera has (CameraIntrinsics::ValidateOrThrow): so
+  // does the writer.
+  core::CameraIntrinsics stored;
+  stored.width = width;
+  stored.height = height;
+  stored.fx = fx;
+  stored.fy = fy;
+  stored.cx = width / 2.0 - 0.5;
+  stored.cy = height / 2.0 - 0.5;
+  try {
+    stored.ValidateOrThrow("intrinsics");
+  } catch (const std::invalid_argument& e) {
+    m.Fail(std::string("implausible field of view: ") + e.what());
+  }
 
   m.file = std::fopen(path.c_str(), "w+b");
   if (m.file == nullptr) m.FailIo("open for writing");
@@ -332,8 +349,10 @@ void OniWriter::WriteFrame(const core::DepthImage& depth, const core::ColorImage
   }
   if (m.frames == std::numeric_limits<int>::max() - 1) m.Fail("too many frames");
 
-  const uint32_t frame_id = static_cast<uint32_t>(m.frames) + 1;
   for (Node& n : m.nodes) {
+    if (n.type != OniNodeType::kDepth && color == nullptr) continue;  // WriteDepthOnlyFrame
+    // Each stream numbers its own frames, as openni::Recorder does.
+    const auto frame_id = static_cast<uint32_t>(n.timestamps.size() + 1);
     Bytes fields;
     fields.U64(ts);
     fields.U32(frame_id);
@@ -351,6 +370,23 @@ void OniWriter::WriteFrame(const core::DepthImage& depth, const core::ColorImage
   }
   m.last_timestamp = ts;
   ++m.frames;
+}
+
+void OniWriter::WriteDepthOnlyFrame(const core::DepthImage& depth, int64_t timestamp_us) {
+  Impl& m = *impl_;
+  if (!m.with_color) {
+    WriteFrame(depth, nullptr, timestamp_us);
+    return;
+  }
+  // WriteFrame() checks everything but the colour, which it then leaves out.
+  m.with_color = false;
+  try {
+    WriteFrame(depth, nullptr, timestamp_us);
+  } catch (...) {
+    m.with_color = true;
+    throw;
+  }
+  m.with_color = true;
 }
 
 void OniWriter::Close() {

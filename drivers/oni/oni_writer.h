@@ -44,6 +44,12 @@ class OniWriter {
   void WriteFrame(const core::DepthImage& depth, const core::ColorImage* color,
                   int64_t timestamp_us);
 
+  /// Appends a depth frame without its colour in a file opened with colour: what a live
+  /// recording holds when the colour camera dropped a frame. As openni::Recorder does, each
+  /// stream numbers its own frames 1, 2, ..., so the colour ids fall behind the depth ids
+  /// from here on. Same requirements and errors as WriteFrame().
+  void WriteDepthOnlyFrame(const core::DepthImage& depth, int64_t timestamp_us);
+
   /// Writes the seek tables, NODE_REMOVED and END records, patches the NODE_ADDED records
   /// and the file header, and closes the file. Does nothing when no file is open.
   /// @throws std::runtime_error naming the file on I/O failure (the file is closed anyway).

@@ -103,23 +103,27 @@ std::filesystem::path ExecutableDir() {
   return ec ? std::filesystem::path() : exe.parent_path();
 }
 
-// Links to libOpenNI2 and libOniFile alone ("" when there are none): the build tree's for a
-// binary of the build tree, otherwise the installed ones beside the executable's prefix.
+// True when `dir` holds the recordings-only layout.
+bool IsRecordingsDir(const std::filesystem::path& dir) {
+  std::error_code ec;
+  return !dir.empty() && std::filesystem::exists(dir / CLUTTERSEG_OPENNI2_SONAME, ec) &&
+         std::filesystem::exists(dir / "OpenNI2" / "Drivers" / "libOniFile.so.0", ec);
+}
+
+// Links to libOpenNI2 and libOniFile alone ("" when there are none): the installed ones
+// beside the executable's prefix (bin/../lib/<multiarch>/clutterseg/openni2-recordings), or,
+// for a binary of the build tree, the build tree's.
 std::string RecordingsOnlyLibrary() {
 #ifdef CLUTTERSEG_OPENNI2_RECORDINGS_DIR
-  std::error_code ec;
   const std::filesystem::path exe_dir = ExecutableDir();
-  std::filesystem::path dir;
+  if (exe_dir.empty()) return {};
+  const std::filesystem::path installed =
+      (exe_dir / CLUTTERSEG_OPENNI2_INSTALLED_RECORDINGS_DIR).lexically_normal();
+  if (IsRecordingsDir(installed)) return (installed / CLUTTERSEG_OPENNI2_SONAME).string();
   const std::string build_tree = CLUTTERSEG_OPENNI2_BUILD_TREE;
-  if (!exe_dir.empty() && exe_dir.string().rfind(build_tree + "/", 0) == 0) {
-    dir = CLUTTERSEG_OPENNI2_RECORDINGS_DIR;
-  } else if (!exe_dir.empty()) {
-    dir = exe_dir / CLUTTERSEG_OPENNI2_INSTALLED_RECORDINGS_DIR;
-  }
-  const std::filesystem::path lib = dir / CLUTTERSEG_OPENNI2_SONAME;
-  if (!dir.empty() && std::filesystem::exists(lib, ec) &&
-      std::filesystem::exists(dir / "OpenNI2" / "Drivers" / "libOniFile.so.0", ec)) {
-    return (dir.lexically_normal() / CLUTTERSEG_OPENNI2_SONAME).string();
+  const std::filesystem::path built(CLUTTERSEG_OPENNI2_RECORDINGS_DIR);
+  if (exe_dir.string().rfind(build_tree + "/", 0) == 0 && IsRecordingsDir(built)) {
+    return (built / CLUTTERSEG_OPENNI2_SONAME).string();
   }
 #endif
   return {};

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/frame_source.h"
 #include "clutterseg/drivers/openni2/openni2_library.h"
 
@@ -29,6 +30,9 @@ struct OpenNI2SourceOptions {
   double replay_speed{1.0};
   bool loop{false};  ///< restart a recording at its end instead of returning kEndOfStream
   std::string camera_name{"camera"};  ///< copied into RgbdFrame::camera_name
+  /// Largest frame accepted: a recording whose streams declare more is refused at Open(), a
+  /// delivered frame beyond them is skipped (SkipReason::kTooLarge).
+  core::FrameLimits limits;
 
   /// @throws std::invalid_argument naming the key and value when an option is out of range.
   void ValidateOrThrow() const;
@@ -59,17 +63,36 @@ void ShutdownOpenNI2();
 /// when enabled and of the depth's size, the device timestamp in microseconds as `utime`,
 /// and intrinsics derived from the stream's field of view: fx = W / (2 tan(hfov / 2)),
 /// fy = H / (2 tan(vfov / 2)), cx = W / 2 - 0.5, cy = H / 2 - 0.5 (pixel-centre convention;
-/// OpenNI2's own converter uses W / 2, half a pixel away). When the device reports no field
-/// of view, the Kinect defaults scaled to the resolution are used.
+/// OpenNI2's own converter uses W / 2, half a pixel away). The intrinsics are checked with
+/// core::CameraIntrinsics::ValidateOrThrow (a field of view of 10..150 degrees): a recording
+/// or device reporting another is refused at Open() with a message naming it and the value.
+/// When the device or recording reports no field of view at all, the Kinect defaults scaled
+/// to the resolution are used (Describe() says so).
 ///
-/// Replay: depth and colour are paired by frame index and the file is never seek()ed (the
-/// Debian build crashes on seek). Every wait is bounded, so a Read never blocks for longer
-/// than its timeout; the end of a recording gives kEndOfStream (from the frame count, the
-/// DEVICE_STATE_EOF event, or both). Files are validated with OniReader before OpenNI2 sees
-/// them, so unfinalized, truncated or garbage files make Open() throw instead of hanging.
+/// Depth drives the frames: every depth frame is delivered, and the colour frame whose
+/// timestamp is within half a frame period of it is attached (frame ids are not used: each
+/// stream numbers its own frames, and a dropped colour frame shifts them). Depth whose colour
+/// is missing or late is delivered alone (counted in SourceReport::frames_without_color),
+/// colour that matches no depth is dropped (SourceReport::color_frames_unmatched). This holds
+/// for live cameras and recordings alike, whatever the ids or the order of the records (a
+/// recording's colour is read through a second lockstep player of the same file, so the
+/// order of its records does not matter).
+///
+/// Replay: the file is validated with OniReader before OpenNI2 sees it: unfinalized,
+/// truncated or garbage files, streams larger than `limits`, an implausible field of view, a
+/// required frame size smaller than the image, and NONE-coded frames whose size disagrees
+/// with the declared image size make Open() throw with a message naming the file (nothing
+/// garbled is replayed). OpenNI2's player always runs in lockstep (it never drops a frame);
+/// a speed > 0 is applied by pacing the frames on their recorded timestamps. The file is
+/// never seek()ed (the Debian build crashes on seek). Every wait is bounded, so a Read never
+/// blocks for longer than its timeout; the end of a recording gives kEndOfStream. report()
+/// holds the recording's depth frame count (read with OniReader) and accounts for each one:
+/// delivered, or skipped with a reason (a delivered frame larger than `limits` or shorter
+/// than its image; frames a damaged recording declares but does not hold, or that OpenNI2
+/// never delivered: kNotDelivered).
 ///
 /// Live: a device that goes away makes Read return kDisconnected; Close() and Open() again to
-/// reconnect.
+/// reconnect. Frames beyond `limits` or shorter than their image are skipped and counted.
 ///
 /// Thread-safety: as core::FrameSource (one capture thread; RequestStop from any thread).
 /// OpenNI2 listener callbacks only set atomic flags and never throw.
@@ -90,10 +113,13 @@ class OpenNI2Source final : public core::FrameSource {
   std::string Describe() const override;
   std::string last_error() const override;
   void RequestStop() override;
+  /// See core::FrameSource::report(); frames_in_source is the recording's depth frame count
+  /// (-1 for a live device). Thread-safe.
+  core::SourceReport report() const override;
 
   /// True after Open() of a recording.
   bool is_file() const;
-  /// Depth frames in the recording (after Open() of a file), -1 for a live device.
+  /// Depth frames the recording holds (after Open() of a file), -1 for a live device.
   int number_of_frames() const;
   /// Intrinsics of the depth stream (valid after Open()).
   core::CameraIntrinsics intrinsics() const;

@@ -48,6 +48,7 @@ void DepthPngSourceOptions::ValidateOrThrow() const {
                 depth_scale_to_mm, "(0, 1000)");
   check.Positive("frame_period_us", frame_period_us, "us");
   intrinsics.ValidateOrThrow();
+  limits.ValidateOrThrow("limits");
 }
 
 DepthPngSource::DepthPngSource(const DepthPngSourceOptions& options) : options_(options) {
@@ -102,6 +103,15 @@ void DepthPngSource::Open() {
   if (json.empty()) {
     const std::vector<std::string> jsons = ListFiles(dir, ".json");
     if (jsons.size() == 1) json = (dir / jsons.front()).string();
+    if (jsons.size() > 1) {
+      std::string names;
+      for (const std::string& name : jsons) {
+        names += (names.empty() ? "'" : ", '") + (dir / name).string() + "'";
+      }
+      throw std::runtime_error("depth PNG source: '" + options_.directory + "' holds " +
+                               std::to_string(jsons.size()) + " intrinsics files (" + names +
+                               "): choose one (intrinsics_json)");
+    }
   }
   if (!json.empty()) {
     intrinsics_ = io::ReadIntrinsicsJson(json);
@@ -114,6 +124,7 @@ void DepthPngSource::Open() {
     for (Entry& e : entries) e.color.clear();
   }
   entries_ = std::move(entries);
+  counters_.SetFramesInSource(static_cast<int64_t>(entries_.size()));
   next_ = 0;
   sequence_ = 0;
   error_.clear();
@@ -125,35 +136,59 @@ core::ReadStatus DepthPngSource::Read(int /*timeout_ms*/, core::RgbdFrame* frame
     error_ = "Read() on a closed source";
     return core::ReadStatus::kError;
   }
-  if (next_ >= entries_.size()) {
-    if (!options_.loop) return core::ReadStatus::kEndOfStream;
-    next_ = 0;
-  }
-  const Entry& e = entries_[next_++];
-  try {
-    frame->depth = io::ReadDepthPng(e.depth, options_.depth_scale_to_mm);
-    if (!e.color.empty()) {
-      frame->color = io::ReadColorPng(e.color);
-      if (frame->color.width != frame->depth.width || frame->color.height != frame->depth.height) {
-        error_ = "depth PNG source: colour " + e.color + " is " +
-                 std::to_string(frame->color.width) + "x" + std::to_string(frame->color.height) +
-                 " but depth " + e.depth + " is " + std::to_string(frame->depth.width) + "x" +
-                 std::to_string(frame->depth.height);
-        return core::ReadStatus::kError;
-      }
-    } else {
-      frame->color.Reset(0, 0);
+  // Bad frames are skipped; at most one pass over the directory per call.
+  for (size_t tries = 0; tries < entries_.size(); ++tries) {
+    if (next_ >= entries_.size()) {
+      if (!options_.loop) return core::ReadStatus::kEndOfStream;
+      next_ = 0;
     }
-  } catch (const std::exception& ex) {
-    error_ = ex.what();
-    return core::ReadStatus::kError;
+    const Entry& e = entries_[next_++];
+    if (next_ == entries_.size()) counters_.PassCompleted();
+    try {
+      frame->depth = io::ReadDepthPng(e.depth, options_.depth_scale_to_mm, options_.limits);
+    } catch (const core::FrameTooLargeError& ex) {
+      counters_.Skipped(core::SkipReason::kTooLarge, ex.what());
+      continue;
+    } catch (const std::exception& ex) {
+      counters_.Skipped(core::SkipReason::kUnreadable, ex.what());
+      continue;
+    }
+    const std::string problem =
+        internal::ScalingProblem(intrinsics_, frame->depth.width, frame->depth.height);
+    if (!problem.empty()) {
+      counters_.Skipped(core::SkipReason::kSizeMismatch,
+                        e.depth + ": " + problem + " (from " + intrinsics_source_ + ")");
+      continue;
+    }
+    bool with_color = false;
+    frame->color.Reset(0, 0);
+    if (!e.color.empty()) {
+      try {
+        frame->color = io::ReadColorPng(e.color, options_.limits);
+        with_color =
+            frame->color.width == frame->depth.width && frame->color.height == frame->depth.height;
+      } catch (const std::exception&) {
+        with_color = false;
+      }
+      if (!with_color) {
+        counters_.ColorUnmatched();
+        frame->color.Reset(0, 0);
+      }
+    }
+    frame->intrinsics = intrinsics_;
+    if (frame->depth.width != intrinsics_.width || frame->depth.height != intrinsics_.height) {
+      frame->intrinsics = intrinsics_.Scaled(frame->depth.width, frame->depth.height);
+    }
+    core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
+    const bool empty = std::none_of(frame->depth.data.begin(), frame->depth.data.end(),
+                                    [](uint16_t d) { return d != 0; });
+    counters_.Delivered(empty, !e.color.empty() && !with_color);
+    return core::ReadStatus::kOk;
   }
-  frame->intrinsics = intrinsics_;
-  if (frame->depth.width != intrinsics_.width || frame->depth.height != intrinsics_.height) {
-    frame->intrinsics = intrinsics_.Scaled(frame->depth.width, frame->depth.height);
-  }
-  core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
-  return core::ReadStatus::kOk;
+  if (next_ >= entries_.size() && !options_.loop) return core::ReadStatus::kEndOfStream;
+  error_ = "depth PNG source: no frame of '" + options_.directory + "' can be read (" +
+           counters_.Snapshot().ToString() + ")";
+  return core::ReadStatus::kError;
 }
 
 void DepthPngSource::Close() {

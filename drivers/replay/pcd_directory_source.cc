@@ -23,6 +23,18 @@ void NaturalSort(std::vector<std::string>* names) {
             [](const std::string& a, const std::string& b) { return core::NaturalLess(a, b); });
 }
 
+std::string ScalingProblem(const core::CameraIntrinsics& k, int width, int height) {
+  if (width == k.width && height == k.height) return "";
+  // Aspect ratios within 1% (e.g. 640x480 and 320x240, or 1280x960) scale; others are
+  // another sensor mode or a crop whose intrinsics cannot be derived by scaling.
+  const double a = static_cast<double>(width) * k.height;
+  const double b = static_cast<double>(height) * k.width;
+  if (width > 0 && height > 0 && std::abs(a - b) <= 0.01 * std::max(a, b)) return "";
+  return "the frame is " + std::to_string(width) + "x" + std::to_string(height) +
+         " but the intrinsics are for " + std::to_string(k.width) + "x" + std::to_string(k.height) +
+         ", another aspect ratio";
+}
+
 }  // namespace internal
 
 void PcdDirectorySourceOptions::ValidateOrThrow() const {
@@ -30,6 +42,7 @@ void PcdDirectorySourceOptions::ValidateOrThrow() const {
   check.NonEmpty("path", path, "a directory or a .pcd file");
   check.Positive("frame_period_us", frame_period_us, "us");
   if (!estimate_intrinsics) intrinsics.ValidateOrThrow();
+  limits.ValidateOrThrow("limits");
 }
 
 core::CameraIntrinsics EstimateIntrinsics(const core::PointCloud& cloud, double* rms_px) {
@@ -189,18 +202,36 @@ void PcdDirectorySource::Open() {
     throw std::runtime_error("PCD directory source: no .pcd files in '" + options_.path + "'");
   }
   if (options_.estimate_intrinsics) {
-    cloud_ = io::ReadPcd(files_.front());
-    try {
-      intrinsics_ = EstimateIntrinsics(cloud_, &fit_rms_px_);
-    } catch (const std::exception& e) {
-      const std::string first = files_.front();
+    // The first readable organized file that gives plausible intrinsics; the files skipped
+    // here are skipped (and counted) again by Read().
+    io::ReadLimits limits;
+    static_cast<core::FrameLimits&>(limits) = options_.limits;
+    std::string first_problem;
+    bool found = false;
+    for (const std::string& file : files_) {
+      try {
+        io::ReadPcd(file, limits, &cloud_);
+        if (!cloud_.organized()) continue;
+        intrinsics_ = EstimateIntrinsics(cloud_, &fit_rms_px_);
+        intrinsics_.ValidateOrThrow("intrinsics");
+        found = true;
+        break;
+      } catch (const std::exception& e) {
+        if (first_problem.empty()) first_problem = std::string(": ") + e.what();
+      }
+    }
+    cloud_ = core::PointCloud{};
+    if (!found) {
+      const std::string path = options_.path;
       files_.clear();
-      throw std::runtime_error("PCD directory source: " + first + ": " + e.what() +
-                               "; give the intrinsics explicitly");
+      throw std::runtime_error("PCD directory source: " + path +
+                               ": no readable organized cloud gives plausible intrinsics" +
+                               first_problem + "; give the intrinsics explicitly");
     }
   } else {
     intrinsics_ = options_.intrinsics;
   }
+  counters_.SetFramesInSource(static_cast<int64_t>(files_.size()));
   next_ = 0;
   sequence_ = 0;
   error_.clear();
@@ -212,28 +243,48 @@ core::ReadStatus PcdDirectorySource::Read(int /*timeout_ms*/, core::RgbdFrame* f
     error_ = "Read() on a closed source";
     return core::ReadStatus::kError;
   }
-  if (next_ >= files_.size()) {
-    if (!options_.loop) return core::ReadStatus::kEndOfStream;
-    next_ = 0;
-  }
-  const std::string& file = files_[next_++];
+  io::ReadLimits limits;
+  static_cast<core::FrameLimits&>(limits) = options_.limits;
   core::PointCloud& cloud = frame->cloud;
-  try {
-    io::ReadPcd(file, {}, &cloud);  // reuses the frame's buffers
-  } catch (const std::exception& e) {
-    error_ = e.what();
-    return core::ReadStatus::kError;
+  // Bad files are skipped; at most one pass over the directory per call.
+  for (size_t tries = 0; tries < files_.size(); ++tries) {
+    if (next_ >= files_.size()) {
+      if (!options_.loop) return core::ReadStatus::kEndOfStream;
+      next_ = 0;
+    }
+    const std::string& file = files_[next_++];
+    if (next_ == files_.size()) counters_.PassCompleted();
+    try {
+      io::ReadPcd(file, limits, &cloud);  // reuses the frame's buffers
+    } catch (const core::FrameTooLargeError& e) {
+      counters_.Skipped(core::SkipReason::kTooLarge, e.what());
+      continue;
+    } catch (const std::exception& e) {
+      counters_.Skipped(core::SkipReason::kUnreadable, e.what());
+      continue;
+    }
+    if (cloud.organized()) {
+      const std::string problem = internal::ScalingProblem(intrinsics_, cloud.width, cloud.height);
+      if (!problem.empty()) {
+        counters_.Skipped(core::SkipReason::kSizeMismatch, file + ": " + problem);
+        continue;
+      }
+      frame->intrinsics = cloud.width == intrinsics_.width && cloud.height == intrinsics_.height
+                              ? intrinsics_
+                              : intrinsics_.Scaled(cloud.width, cloud.height);
+    } else {
+      frame->intrinsics = intrinsics_;
+    }
+    // The cloud is what gets segmented; its depth image serves display and recording.
+    CloudToDepth(cloud, frame->intrinsics, &frame->depth, &frame->color);
+    core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
+    counters_.Delivered(cloud.CountValid() == 0);
+    return core::ReadStatus::kOk;
   }
-  if (cloud.organized() &&
-      (cloud.width != intrinsics_.width || cloud.height != intrinsics_.height)) {
-    frame->intrinsics = intrinsics_.Scaled(cloud.width, cloud.height);
-  } else {
-    frame->intrinsics = intrinsics_;
-  }
-  // The cloud is what gets segmented; its depth image serves display and recording.
-  CloudToDepth(cloud, frame->intrinsics, &frame->depth, &frame->color);
-  core::StampReplayFrame(sequence_++, options_.frame_period_us, options_.camera_name, frame);
-  return core::ReadStatus::kOk;
+  if (next_ >= files_.size() && !options_.loop) return core::ReadStatus::kEndOfStream;
+  error_ = "PCD directory source: no file of '" + options_.path + "' can be read (" +
+           counters_.Snapshot().ToString() + ")";
+  return core::ReadStatus::kError;
 }
 
 void PcdDirectorySource::Close() {

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/frame_source.h"
 #include "clutterseg/core/point_cloud.h"
 
@@ -15,14 +16,15 @@ struct PcdDirectorySourceOptions {
   /// A directory of *.pcd files (read in natural order: "learn2" before "learn10") or one
   /// .pcd file.
   std::string path;
-  /// true: fit the intrinsics to the first organized cloud (see EstimateIntrinsics); false:
-  /// use `intrinsics`.
+  /// true: fit the intrinsics to the first readable organized cloud (see
+  /// EstimateIntrinsics); false: use `intrinsics`.
   bool estimate_intrinsics{true};
   core::CameraIntrinsics intrinsics;  ///< used when estimate_intrinsics is false
   bool loop{false};                   ///< start again after the last file
   /// PCD files carry no time: frame k gets utime = k * frame_period_us (k counts across loops).
   int64_t frame_period_us{33333};
   std::string camera_name{"camera"};  ///< copied into RgbdFrame::camera_name
+  core::FrameLimits limits;           ///< larger files are skipped (SkipReason::kTooLarge)
 
   /// @throws std::invalid_argument naming the key and value when an option is out of range.
   void ValidateOrThrow() const;
@@ -47,22 +49,33 @@ void CloudToDepth(const core::PointCloud& cloud, const core::CameraIntrinsics& i
 /// A core::FrameSource replaying PCD files (e.g. the mOSD / OSD data sets): each frame carries
 /// the file's cloud as it is (RgbdFrame::cloud, organized or not, so that the daemon segments
 /// exactly what clutterseg-segment segments) and its depth and colour images (CloudToDepth),
-/// for display and recording. Thread-safety: as core::FrameSource.
+/// for display and recording.
+///
+/// A file that cannot be read (truncated, corrupt, beyond `limits`) or whose organized size
+/// has another aspect ratio than the intrinsics is skipped: Read() goes on with the next file
+/// and report() counts it with its reason and the file's name. report() also counts frames
+/// without a single finite point (SourceReport::frames_empty).
+/// Thread-safety: as core::FrameSource.
 class PcdDirectorySource final : public core::FrameSource {
  public:
   /// @throws std::invalid_argument when `options` are invalid.
   explicit PcdDirectorySource(const PcdDirectorySourceOptions& options);
 
-  /// Lists the files and fixes the intrinsics. @throws std::runtime_error naming the path when
-  /// there are no PCD files or the intrinsics cannot be estimated from the first one.
+  /// Lists the files and fixes the intrinsics (fitted to the first readable organized file,
+  /// and checked with core::CameraIntrinsics::ValidateOrThrow).
+  /// @throws std::runtime_error naming the path when there are no PCD files or no readable
+  /// organized file gives plausible intrinsics.
   void Open() override;
-  /// Reads the next file (the timeout is not needed: files are read synchronously). A file
-  /// that cannot be read gives kError naming it; the next Read continues with the next file.
+  /// Reads the next readable file (the timeout is not needed: files are read synchronously),
+  /// skipping and counting the others. kEndOfStream after the last file; kError only when a
+  /// looping directory has no readable file at all.
   core::ReadStatus Read(int timeout_ms, core::RgbdFrame* frame) override;
   void Close() override;
   bool IsLive() const override { return false; }
   std::string Describe() const override;
   std::string last_error() const override { return error_; }
+  /// See core::FrameSource::report(); frames_in_source is the number of .pcd files.
+  core::SourceReport report() const override { return counters_.Snapshot(); }
 
   const std::vector<std::string>& files() const { return files_; }
   /// Intrinsics attached to the frames (valid after Open()).
@@ -78,11 +91,16 @@ class PcdDirectorySource final : public core::FrameSource {
   double fit_rms_px_{0.0};
   core::PointCloud cloud_;
   std::string error_;
+  core::SourceCounters counters_;
 };
 
 namespace internal {
 /// Sorts file names so that embedded numbers compare by value ("a2" < "a10").
 void NaturalSort(std::vector<std::string>* names);
+/// Why intrinsics for `k.width` x `k.height` cannot be scaled to a `width` x `height` frame
+/// (another aspect ratio: another sensor mode or crop, not a resolution change), or "" when
+/// they can.
+std::string ScalingProblem(const core::CameraIntrinsics& k, int width, int height);
 }  // namespace internal
 
 }  // namespace clutterseg::drivers

@@ -34,6 +34,7 @@ struct SyntheticSource::Impl {
   bool open{false};
   std::atomic<bool> stop{false};
   std::chrono::steady_clock::time_point start;
+  core::SourceCounters counters;
 };
 
 SyntheticSource::SyntheticSource(const SyntheticSourceOptions& options)
@@ -61,6 +62,7 @@ void SyntheticSource::Open() {
   m.sequence = 0;
   m.stop = false;
   m.start = std::chrono::steady_clock::now();
+  m.counters.SetFramesInSource(options_.num_frames);
   m.open = true;
   error_.clear();
 }
@@ -109,6 +111,9 @@ core::ReadStatus SyntheticSource::Read(int timeout_ms, core::RgbdFrame* frame) {
   frame->color = m.rendered.color;
   frame->intrinsics = m.rendered.intrinsics;
   core::StampReplayFrame(m.sequence++, options_.frame_period_us, options_.camera_name, frame);
+  m.counters.Delivered(std::none_of(frame->depth.data.begin(), frame->depth.data.end(),
+                                    [](uint16_t d) { return d != 0; }));
+  if (m.next == options_.num_frames) m.counters.PassCompleted();
   return core::ReadStatus::kOk;
 }
 
@@ -118,6 +123,8 @@ void SyntheticSource::Close() {
 }
 
 void SyntheticSource::RequestStop() { impl_->stop.store(true); }
+
+core::SourceReport SyntheticSource::report() const { return impl_->counters.Snapshot(); }
 
 const core::LabelImage& SyntheticSource::last_labels() const { return impl_->rendered.label; }
 

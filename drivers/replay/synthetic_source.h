@@ -55,6 +55,8 @@ class SyntheticSource final : public core::FrameSource {
   std::string Describe() const override;
   std::string last_error() const override { return error_; }
   void RequestStop() override;
+  /// See core::FrameSource::report(); frames_in_source is `num_frames`.
+  core::SourceReport report() const override;
 
   /// Object labels of the last frame read (0 = background or no depth), pixel-aligned.
   const core::LabelImage& last_labels() const;

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "clutterseg/core/frame.h"
+#include "clutterseg/core/source_report.h"
 
 namespace clutterseg::core {
 
@@ -20,7 +21,13 @@ enum class ReadStatus {
 /// hardware or format; the pipeline only sees this interface.
 ///
 /// Thread-safety: a source is used by one capture thread at a time, except RequestStop(),
-/// which may be called from any thread to make a blocking Read return promptly.
+/// which may be called from any thread to make a blocking Read return promptly, and report(),
+/// which may be called from any thread at any time.
+///
+/// Frames a source holds but cannot deliver (a truncated file in a directory, a damaged frame
+/// of a recording, a frame beyond core::FrameLimits) are skipped: Read() goes on with the next
+/// frame and counts the skipped one, with its reason, in report(). Read() returns kError only
+/// when the source as a whole cannot go on.
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
@@ -42,6 +49,14 @@ class FrameSource {
   virtual std::string last_error() const = 0;
   /// Asks a blocking Read to return (kTimeout or kEndOfStream) as soon as possible.
   virtual void RequestStop() {}
+  /// What the source delivered and what it could not (skipped frames with their reasons,
+  /// frames without any measurement or without colour), counted since construction; see
+  /// SourceReport. At kEndOfStream of a finite source every frame is accounted for:
+  /// `frames_delivered + frames_skipped() == frames_in_source` (per pass). Consumers should
+  /// treat `lost_frames()` and `all_empty()` as a failed run. Sources that count nothing
+  /// return the default report (frames_in_source -1, all counts 0).
+  /// Thread-safe: any thread, also while another thread is inside Read(); O(recent skips).
+  virtual SourceReport report() const { return {}; }
 };
 
 }  // namespace clutterseg::core

@@ -91,6 +91,7 @@ void Capture::Loop() {
     const bool lockstep = !live && params_.speed == Speed::kMax;
     const bool pace = !live && params_.speed == Speed::kRealtime;
     int64_t pace_utime0 = 0;
+    int64_t pace_last_utime = 0;
     Clock::time_point pace_t0;
     bool pace_base = false;
     SetState(DeviceState::kStreaming);
@@ -103,7 +104,9 @@ void Capture::Loop() {
       if (lockstep && !queue_->wait_not_full_for(std::chrono::milliseconds(100))) continue;
       core::RgbdFrame* frame = queue_->acquire();
       frame->receive_utime = 0;
-      switch (source_->Read(100, frame)) {
+      const core::ReadStatus status = source_->Read(100, frame);
+      LogSkips();
+      switch (status) {
         case core::ReadStatus::kOk: {
           const int64_t steady_now = core::SteadyClockMicros();
           if (frame->receive_utime == 0) frame->receive_utime = steady_now;
@@ -113,11 +116,14 @@ void Capture::Loop() {
           if (pace) {
             // Replay at the recorded rate: frame time relative to the first frame.
             const auto now = Clock::now();
-            if (!pace_base || frame->utime < pace_utime0) {
+            // A new base at the first frame and whenever the recording's clock goes back
+            // (each pass of a looped recording starts at the first frame's time again).
+            if (!pace_base || frame->utime < pace_last_utime) {
               pace_utime0 = frame->utime;
               pace_t0 = now;
               pace_base = true;
             }
+            pace_last_utime = frame->utime;
             const auto due = pace_t0 + std::chrono::microseconds(frame->utime - pace_utime0);
             if (due - now > std::chrono::seconds(2)) {  // a jump in the recording's clock
               pace_utime0 = frame->utime;
@@ -172,6 +178,18 @@ void Capture::Loop() {
     NoteProblem(std::string("closing the source: ") + e.what());
   } catch (...) {
   }
+}
+
+void Capture::LogSkips() {
+  const core::SourceReport report = source_->report();
+  if (report.frames_skipped() == skips_logged_) return;
+  for (const core::SkippedFrame& skip : report.recent_skips) {
+    if (skip.serial <= skips_logged_) continue;
+    Log(LogLevel::kWarn,
+        "frame not delivered by the source (" + std::string(core::ToString(skip.reason)) + ")" +
+            (skip.count > 1 ? " x" + std::to_string(skip.count) : "") + ": " + skip.what);
+  }
+  skips_logged_ = report.frames_skipped();
 }
 
 void Capture::Reconnect() {

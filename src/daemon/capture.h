@@ -82,6 +82,8 @@ class Capture {
   std::string last_problem() const;
 
  private:
+  // Logs the frames the source skipped since the last call, each once (capture thread).
+  void LogSkips();
   void Loop();
   void Reconnect();
   bool SleepUnlessStopped(std::chrono::microseconds d);
@@ -98,6 +100,7 @@ class Capture {
   std::condition_variable stop_cv_;
   std::atomic<uint64_t> captured_{0};
   std::atomic<uint64_t> reconnects_{0};
+  uint64_t skips_logged_{0};  // serial of the last skipped frame logged (capture thread)
   std::atomic<int> state_{static_cast<int>(DeviceState::kStarting)};
   mutable std::mutex problem_mutex_;
   std::string last_problem_;

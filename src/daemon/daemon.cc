@@ -75,6 +75,7 @@ struct Daemon::Impl {
   std::unique_ptr<pipeline::TrackerParams> pending_tracker_params;  // applied before a frame
   pipeline::FrameRunner runner;  // last: its lanes use everything above
   std::thread dispatch_thread;
+  bool opened{false};
   bool started{false};
   bool joined{false};
 
@@ -266,6 +267,9 @@ struct Daemon::Impl {
     }
     c.publish_failures = publisher.publish_failures();
     c.reconnect_attempts = capture.reconnect_attempts();
+    const core::SourceReport report = source->report();
+    c.frames_not_delivered = report.frames_skipped();
+    c.frames_expected = report.frames_in_source;
     c.queue_depth = static_cast<int32_t>(queue->size());
     c.queue_capacity = static_cast<int32_t>(queue->capacity());
     c.last_num_objects = last_num_objects.load();
@@ -288,15 +292,22 @@ Daemon::~Daemon() {
   }
 }
 
-void Daemon::Start() {
+void Daemon::Open() {
   Impl& d = *impl_;
-  CLUTTERSEG_DEMAND(!d.started);
+  CLUTTERSEG_DEMAND(!d.opened);
   try {
     d.source->Open();
   } catch (const std::exception& e) {
     throw SourceOpenError(e.what());
   }
   d.source_description = d.source->Describe();
+  d.opened = true;
+}
+
+void Daemon::Start() {
+  Impl& d = *impl_;
+  CLUTTERSEG_DEMAND(!d.started);
+  if (!d.opened) Open();
   if (d.overlay) d.overlay->Start();
   d.status = std::make_unique<StatusReporter>(
       d.config.status, d.config.capture.camera_name, d.source_description,
@@ -364,6 +375,7 @@ DaemonStats Daemon::stats() const {
   s.reconnect_attempts = d.capture.reconnect_attempts();
   s.param_reloads = d.reloads.load();
   s.device_state = d.capture.device_state();
+  s.source = d.source->report();
   return s;
 }
 

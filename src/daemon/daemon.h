@@ -37,6 +37,9 @@ struct DaemonStats {
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
   uint64_t param_reloads{0};  ///< segmenter parameter sets applied after start
+  /// What the source delivered and could not (frames skipped with their reasons, the frames
+  /// a recording holds, empty frames); see core::SourceReport.
+  core::SourceReport source;
   DeviceState device_state{DeviceState::kStarting};
 };
 
@@ -53,7 +56,7 @@ struct DaemonStats {
 /// A lost device is closed and reopened with exponential backoff. No exception leaves a
 /// thread: errors are recorded, reported in status_t and end the run with exit code 1.
 ///
-/// Thread-safety: Start, WaitFor and Join from the owning thread; RequestStop,
+/// Thread-safety: Open, Start, WaitFor and Join from the owning thread; RequestStop,
 /// UpdateSegmenterParams, stats() and error() from any thread.
 class Daemon {
  public:
@@ -68,7 +71,12 @@ class Daemon {
   /// Requests a stop and joins all threads.
   ~Daemon();
 
-  /// Opens the source on the calling thread, then starts the threads.
+  /// Opens the source on the calling thread (a device or a long recording may take a while);
+  /// no thread runs and nothing is published yet. Optional: Start() opens it otherwise.
+  /// @throws SourceOpenError when the source cannot be opened.
+  void Open();
+  /// Opens the source unless Open() did, then starts the threads. A RequestStop() that came
+  /// after Open() makes the threads finish at once (with a last status_t).
   /// @throws SourceOpenError when the source cannot be opened.
   void Start();
   /// Asks for an orderly stop: capture stops, frames being segmented finish and are

@@ -84,6 +84,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("lcm.publish_depth", &C::lcm, &LcmPublisherParams::publish_depth),
         MakeKey("lcm.depth_channel", &C::lcm, &LcmPublisherParams::depth_channel),
         MakeKey("lcm.object_points", &C::lcm, &LcmPublisherParams::object_points),
+        MakeKey("lcm.check_instances", &C::lcm, &LcmPublisherParams::check_instances),
         MakeKey("processing.queue_capacity", &C::capture, &CaptureParams::queue_capacity),
         MakeKey("processing.threads", &C::processing, &pipeline::FrameRunnerParams::threads),
         MakeKey("processing.pipeline_depth", &C::processing,

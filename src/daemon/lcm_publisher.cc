@@ -3,6 +3,8 @@
 #include <pthread.h>
 
 #include <chrono>
+#include <iterator>
+#include <utility>
 
 #include "clutterseg/core/frame.h"
 #include "clutterseg/core/param_check.h"
@@ -10,13 +12,44 @@
 
 namespace clutterseg::daemon {
 
+namespace {
+
+// LCM's limit on channel names (LCM_MAX_CHANNEL_NAME_LENGTH): longer names are refused by
+// every provider at publish time.
+constexpr size_t kMaxChannelBytes = 63;
+
+bool IsChannelName(const std::string& name) {
+  if (name.empty() || name.size() > kMaxChannelBytes) return false;
+  for (const char c : name) {
+    if (c <= ' ' || c > '~') return false;  // printable ASCII without spaces
+  }
+  return true;
+}
+
+}  // namespace
+
 void LcmPublisherParams::ValidateOrThrow() const {
   const core::ParamCheck check("lcm");
-  check.NonEmpty("url", url, "an LCM URL such as memq:// or udpm://...");
-  check.NonEmpty("objects_channel", objects_channel, "a channel name");
-  check.NonEmpty("labels_channel", labels_channel, "a channel name");
-  check.NonEmpty("status_channel", status_channel, "a channel name");
-  check.NonEmpty("depth_channel", depth_channel, "a channel name");
+  const std::pair<const char*, const std::string*> channels[] = {
+      {"objects_channel", &objects_channel},
+      {"labels_channel", &labels_channel},
+      {"status_channel", &status_channel},
+      {"depth_channel", &depth_channel}};
+  for (size_t i = 0; i < std::size(channels); ++i) {
+    const auto& [key, name] = channels[i];
+    if (!IsChannelName(*name)) {
+      check.Fail(key, "'" + *name + "'",
+                 "a channel name of 1 to 63 printable ASCII characters without spaces (LCM's "
+                 "limit)");
+    }
+    for (size_t j = 0; j < i; ++j) {
+      if (*channels[j].second == *name) {
+        check.Fail(key, "'" + *name + "'",
+                   std::string("a channel other than lcm.") + channels[j].first +
+                       " (each message type needs its own channel)");
+      }
+    }
+  }
   check.InRange("object_points", object_points, 0, 100000);
   check.InRange("queue_capacity", queue_capacity, 1, 1024);
 }

@@ -20,11 +20,12 @@ namespace clutterseg::daemon {
 
 /// Where and what the daemon publishes. YAML section `lcm`.
 struct LcmPublisherParams {
-  std::string url{"udpm://239.255.76.67:7667?ttl=0"};  ///< LCM provider URL
-  std::string objects_channel{"CLUTTERSEG_OBJECTS"};   ///< objects_t channel
-  std::string labels_channel{"CLUTTERSEG_LABELS"};     ///< label_image_t channel
-  std::string status_channel{"CLUTTERSEG_STATUS"};     ///< status_t channel
-  bool publish_labels{true};                           ///< publish a label_image_t per frame
+  /// LCM provider URL; empty = $LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0.
+  std::string url;
+  std::string objects_channel{"CLUTTERSEG_OBJECTS"};  ///< objects_t channel
+  std::string labels_channel{"CLUTTERSEG_LABELS"};    ///< label_image_t channel
+  std::string status_channel{"CLUTTERSEG_STATUS"};    ///< status_t channel
+  bool publish_labels{true};                          ///< publish a label_image_t per frame
   LabelCompression label_compression{LabelCompression::kRle};
   /// Publish each frame's depth image (depth_image_t, zlib) on depth_channel, so consumers
   /// get geometry without a second camera reader (about 150 kB per 640x480 frame).
@@ -32,6 +33,9 @@ struct LcmPublisherParams {
   std::string depth_channel{"CLUTTERSEG_DEPTH"};  ///< depth_image_t channel
   /// Per object, up to this many of its points in object_t.samples (0 = none).
   int object_points{0};
+  /// On a multicast bus (udpm, mpudpm), refuse to start when another daemon publishes the
+  /// same camera_name there (found by listening to status_channel for one status period).
+  bool check_instances{true};
   /// Frames that may wait for a slow transport (a stalled tcpq peer, a slow disk under a
   /// file:// log) before the oldest is dropped and counted.
   int queue_capacity{4};

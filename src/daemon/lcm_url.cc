@@ -160,4 +160,11 @@ std::string CheckLcmUrl(const std::string& url) {
   return why;
 }
 
+std::string ResolveLcmUrl(const std::string& configured) {
+  if (!configured.empty()) return configured;
+  const char* env = std::getenv("LCM_DEFAULT_URL");
+  if (env != nullptr && env[0] != '\0') return env;
+  return kLcmDefaultUrl;
+}
+
 }  // namespace clutterseg::daemon

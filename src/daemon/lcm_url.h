@@ -16,4 +16,11 @@ namespace clutterseg::daemon {
 /// it (one line). Thread-safety: pure function.
 std::string CheckLcmUrl(const std::string& url);
 
+/// LCM's own default URL when none is configured.
+inline constexpr char kLcmDefaultUrl[] = "udpm://239.255.76.67:7667?ttl=0";
+
+/// The URL to open: `configured` when it is non-empty, else $LCM_DEFAULT_URL (the variable
+/// every LCM program honours), else kLcmDefaultUrl. Thread-safety: reads the environment.
+std::string ResolveLcmUrl(const std::string& configured);
+
 }  // namespace clutterseg::daemon

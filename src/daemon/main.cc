@@ -1,13 +1,13 @@
 // clutterseg: the segmentation daemon. Reads frames from a camera, recording, directory or
 // the synthetic generator, segments them and publishes the results over LCM.
 //
-// Exit codes: 0 ok (signal, --max-frames, end of recording), 1 runtime failure, 2 bad command
-// line or configuration, 3 source cannot be opened, 4 LCM unavailable.
+// Exit codes (core/exit_codes.h): 0 ok (signal, --max-frames, end of recording), 1 runtime
+// failure, 2 bad command line or configuration, 3 source cannot be opened, 4 LCM unavailable,
+// 5 finished but something was not delivered.
 
-#include <poll.h>
 #include <signal.h>
-#include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -18,14 +18,19 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
-#include <sys/signalfd.h>
 
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/daemon_config.h"
+#include "clutterseg/daemon/instance_watch.h"
 #include "clutterseg/daemon/lcm_bus.h"
+#include "clutterseg/daemon/lcm_log_file.h"
 #include "clutterseg/daemon/lcm_url.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/run_watch.h"
+#include "clutterseg/daemon/signal_watcher.h"
 #include "clutterseg/daemon/source_factory.h"
+#include "clutterseg/daemon/systemd_notify.h"
+#include "clutterseg/version.h"
 
 namespace clutterseg::daemon {
 namespace {
@@ -65,65 +70,45 @@ DaemonConfig BuildConfig(const CommandLine& cl) {
   return c;
 }
 
-// Waits for the daemon while handling signals from `signal_fd`.
-void RunUntilDone(const CommandLine& cl, int signal_fd, Daemon* daemon) {
-  bool stopping = false;
-  for (;;) {
-    pollfd pfd{signal_fd, POLLIN, 0};
-    if (poll(&pfd, 1, 20) > 0 && (pfd.revents & POLLIN)) {
-      signalfd_siginfo info{};
-      if (read(signal_fd, &info, sizeof(info)) == static_cast<ssize_t>(sizeof(info))) {
-        const int sig = static_cast<int>(info.ssi_signo);
-        if (sig == SIGHUP) {
-          if (cl.config_path.empty()) {
-            Log(LogLevel::kWarn, "SIGHUP: no --config file, nothing to reload");
-          } else {
-            try {
-              const DaemonConfig fresh = BuildConfig(cl);
-              daemon->UpdateSegmenterParams(fresh.segmenter);
-              daemon->UpdateTrackerParams(fresh.tracker);
-              Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
-                                       " (applied from the next frame)");
-            } catch (const std::exception& e) {
-              Log(LogLevel::kError, std::string("SIGHUP: reload failed, keeping the current "
-                                                "parameters: ") +
-                                        e.what());
-            }
-          }
-        } else if (!stopping) {
-          stopping = true;
-          Log(LogLevel::kInfo, std::string(strsignal(sig)) + ": stopping");
-          daemon->RequestStop();
-        } else {
-          Log(LogLevel::kError, std::string(strsignal(sig)) + " again: exiting at once");
-          std::_Exit(kExitFailure);
-        }
-      }
-    }
-    if (daemon->WaitFor(std::chrono::milliseconds(0))) return;
+// How long start-up (opening the LCM URL and the source) may take before the daemon gives up
+// on a step that does not return (e.g. a tcpq:// peer that never answers the handshake).
+constexpr auto kStartupLimit = std::chrono::seconds(20);
+
+// How long the daemon listens for another daemon of its camera before publishing: a little
+// more than one status period (theirs is most likely the default, like ours).
+std::chrono::milliseconds InstanceCheckPeriod(double status_period_s) {
+  const double s = std::min(5.0, 1.2 * status_period_s + 0.2);
+  return std::chrono::milliseconds(static_cast<int64_t>(s * 1000.0));
+}
+
+// SIGHUP: re-reads --config (with the command line on top) and applies the segmenter and
+// tracker parameters from the next frame. Runs on the signal thread; never throws.
+void Reload(const CommandLine& cl, Daemon* daemon) {
+  if (cl.config_path.empty()) {
+    Log(LogLevel::kWarn, "SIGHUP: no --config file, nothing to reload");
+    return;
+  }
+  try {
+    const DaemonConfig fresh = BuildConfig(cl);
+    daemon->UpdateSegmenterParams(fresh.segmenter);
+    daemon->UpdateTrackerParams(fresh.tracker);
+    Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
+                             " (applied from the next frame)");
+  } catch (const std::exception& e) {
+    Log(LogLevel::kError,
+        std::string("SIGHUP: reload failed, keeping the current parameters: ") + e.what());
   }
 }
 
-// Blocks SIGINT, SIGTERM and SIGHUP in the calling thread (threads created later inherit the
-// mask) and returns that set, for the signalfd.
-sigset_t BlockDaemonSignals() {
-  sigset_t mask;
-  sigemptyset(&mask);
-  sigaddset(&mask, SIGINT);
-  sigaddset(&mask, SIGTERM);
-  sigaddset(&mask, SIGHUP);
-  pthread_sigmask(SIG_BLOCK, &mask, nullptr);
-  return mask;
-}
-
 int Run(int argc, char** argv) {
-  // Signals are taken through a signalfd: block them before any thread exists so that every
-  // thread inherits the mask.
-  const sigset_t mask = BlockDaemonSignals();
+  // Signals are taken by a thread of their own from here on (the mask was blocked before
+  // main), so a signal during a slow start-up (an LCM handshake, a device) is honoured too.
   signal(SIGPIPE, SIG_IGN);
-  const int signal_fd = signalfd(-1, &mask, SFD_CLOEXEC);
-  if (signal_fd < 0) {
-    std::perror("clutterseg: signalfd");
+  std::unique_ptr<SignalWatcher> signals;
+  try {
+    signals = std::make_unique<SignalWatcher>(BlockDaemonSignals(), kStartupLimit);
+  } catch (const std::exception& e) {
+    Log(LogLevel::kError, e.what());
     return kExitFailure;
   }
 
@@ -131,9 +116,10 @@ int Run(int argc, char** argv) {
   CLI::App app{"clutterseg: training-free RGB-D tabletop segmentation daemon (publishes LCM)"};
   app.footer(
       "Exit codes: 0 ok (signal, --max-frames or end of recording), 1 runtime failure, 2 bad "
-      "command line or configuration, 3 source cannot be opened, 4 LCM unavailable.\n"
-      "Signals: SIGINT/SIGTERM finish the frames in flight and exit; SIGHUP reloads the "
-      "segmenter parameters from --config.");
+      "command line or configuration, 3 source cannot be opened, 4 LCM unavailable, 5 "
+      "finished but not everything was delivered (named in the last log line).\n"
+      "Signals: SIGINT/SIGTERM finish the frames in flight and exit (a second one exits at "
+      "once); SIGHUP reloads the segmenter and tracker parameters from --config.");
   app.add_option("--config", cl.config_path,
                  "YAML configuration file (see config/clutterseg.yaml)");
   app.add_option("--source", cl.source,
@@ -142,14 +128,17 @@ int Run(int argc, char** argv) {
   app.add_option("--lcm-url", cl.lcm_url,
                  "LCM URL, e.g. udpm://239.255.76.67:7667?ttl=0, memq://, "
                  "file:///abs/out.lcmlog?mode=w");
-  app.add_option("--max-frames", cl.max_frames, "stop after publishing N frames (0 = no limit)");
+  app.add_option("--max-frames", cl.max_frames, "stop after publishing N frames (0 = no limit)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--png-dir", cl.png_dir, "write a label overlay PNG per frame into DIR");
-  app.add_option("--threads", cl.threads, "worker threads (0 = number of cores)");
+  app.add_option("--threads", cl.threads, "worker threads (0 = number of cores)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--log-level", cl.log_level, "debug | info | warn | error");
   app.add_flag("--loop", cl.loop, "restart recordings at their end");
   app.add_option("--set", cl.sets, "override any config key: --set segmenter.planes.max_planes=4")
       ->type_name("KEY=VALUE");
   app.add_flag("--print-config", cl.print_config, "print the effective configuration and exit");
+  app.set_version_flag("--version", std::string("clutterseg ") + kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -161,7 +150,7 @@ int Run(int argc, char** argv) {
   try {
     cfg = BuildConfig(cl);
   } catch (const ConfigError& e) {
-    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    Log(LogLevel::kError, std::string("configuration: ") + e.what());
     return kExitUsage;
   }
   if (cl.print_config) {
@@ -170,94 +159,145 @@ int Run(int argc, char** argv) {
   }
   SetLogLevel(cfg.log_level);
 
-  if (const std::string why = CheckLcmUrl(cfg.lcm.url); !why.empty()) {
-    std::fprintf(stderr, "clutterseg: configuration error: lcm.url = '%s': %s\n",
-                 cfg.lcm.url.c_str(), why.c_str());
+  const std::string lcm_url = ResolveLcmUrl(cfg.lcm.url);
+  if (const std::string why = CheckLcmUrl(lcm_url); !why.empty()) {
+    Log(LogLevel::kError, "configuration: lcm.url = '" + lcm_url + "'" +
+                              (cfg.lcm.url.empty() ? " (from LCM_DEFAULT_URL)" : "") + ": " + why);
     return kExitUsage;
   }
+  // A log this daemon writes is locked (and a torn end repaired) before LCM opens it.
+  std::unique_ptr<LcmLogFileGuard> log_guard;
+  if (FileLogUrl log; ParseFileLogUrl(lcm_url, &log)) {
+    try {
+      log_guard = std::make_unique<LcmLogFileGuard>(log);
+    } catch (const std::exception& e) {
+      Log(LogLevel::kError, "cannot open LCM URL '" + lcm_url + "': " + e.what());
+      return kExitLcmUnavailable;
+    }
+    if (log_guard->repaired_bytes() > 0) {
+      Log(LogLevel::kWarn, "LCM log " + log.path + ": cut a torn last event (" +
+                               std::to_string(log_guard->repaired_bytes()) +
+                               " bytes) left by an earlier run; appending after event " +
+                               std::to_string(log_guard->events_before()));
+    }
+  }
   std::unique_ptr<LcmBus> bus;
+  signals->Step("opening LCM URL '" + lcm_url + "'", kExitLcmUnavailable);
   try {
-    bus = std::make_unique<LcmBus>(cfg.lcm.url);
+    bus = std::make_unique<LcmBus>(lcm_url);
   } catch (const LcmUnavailableError& e) {
-    std::fprintf(stderr, "clutterseg: %s\n", e.what());
+    Log(LogLevel::kError, e.what());
     return kExitLcmUnavailable;
   }
 
+  // On a shared bus, listen for another daemon of the same camera while the source opens.
+  std::unique_ptr<InstanceWatch> instances;
+  const auto check_until =
+      std::chrono::steady_clock::now() + InstanceCheckPeriod(cfg.status.period_s);
+  if (cfg.lcm.check_instances && IsSharedBus(lcm_url)) {
+    try {
+      instances = std::make_unique<InstanceWatch>(bus.get(), cfg.lcm.status_channel,
+                                                  cfg.capture.camera_name);
+    } catch (const std::exception& e) {
+      Log(LogLevel::kWarn, std::string("cannot watch for other daemons: ") + e.what());
+    }
+  }
+
   std::unique_ptr<core::FrameSource> source;
+  signals->Step("opening the source '" + cfg.source + "'", kExitSourceUnavailable);
   try {
     source = MakeSource(cfg);
   } catch (const SourceOpenError& e) {
-    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    Log(LogLevel::kError, std::string("cannot open the source: ") + e.what());
     return kExitSourceUnavailable;
   } catch (const std::invalid_argument& e) {
-    std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+    Log(LogLevel::kError, std::string("configuration: ") + e.what());
     return kExitUsage;
   }
   try {
     InitializeSourceDrivers(cfg);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "clutterseg: cannot open the source: %s\n", e.what());
+    Log(LogLevel::kError, std::string("cannot open the source: ") + e.what());
     return kExitSourceUnavailable;
   }
 
   int code = kExitOk;
+  std::string error;
+  DaemonStats stats;
+  SystemdNotifier notifier;
   {
     std::unique_ptr<Daemon> daemon;
     try {
       daemon = std::make_unique<Daemon>(cfg, std::move(source), bus.get());
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "clutterseg: configuration error: %s\n", e.what());
+      Log(LogLevel::kError, std::string("configuration: ") + e.what());
       return kExitUsage;
     }
     try {
-      daemon->Start();
+      daemon->Open();
     } catch (const SourceOpenError& e) {
-      std::fprintf(stderr, "clutterseg: cannot open the source '%s': %s\n", cfg.source.c_str(),
-                   e.what());
+      Log(LogLevel::kError, "cannot open the source '" + cfg.source + "': " + e.what());
       daemon.reset();
       ShutdownSourceDrivers();
       return kExitSourceUnavailable;
     }
+    if (instances) {
+      signals->Step("listening for other daemons on " + cfg.lcm.status_channel, kExitUsage);
+      if (const std::string conflict = instances->WaitForConflict(check_until); !conflict.empty()) {
+        Log(LogLevel::kError, "configuration: " + conflict +
+                                  "; give each daemon its own camera_name (or set "
+                                  "lcm.check_instances: false)");
+        daemon.reset();
+        instances.reset();
+        ShutdownSourceDrivers();
+        return kExitUsage;
+      }
+    }
+    // From here a stop signal is an orderly stop; before, nothing had been published and the
+    // watcher ends the process at once.
+    Daemon* running = daemon.get();
+    signals->Attach([running] { running->RequestStop(); }, [&cl, running] { Reload(cl, running); });
+    daemon->Start();
     Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
                              cfg.lcm.objects_channel + ")");
-    RunUntilDone(cl, signal_fd, daemon.get());
+    notifier.Ready("publishing " + daemon->source_description() + " on " + bus->url());
+    WaitUntilDone(*signals, IsNetworkBus(lcm_url), &notifier, running);
     daemon->Join();
+    signals->Detach();
     code = daemon->exit_code();
-    const DaemonStats s = daemon->stats();
-    const RunLatency lat = daemon->run_latency();
-    char latency[200];
-    std::snprintf(latency, sizeof(latency),
-                  "; whole run: capture->publish p50 %.1f p99 %.1f max %.1f ms, segment p50 "
-                  "%.1f p99 %.1f ms over %llu frames",
-                  lat.capture_to_publish_p50_ms, lat.capture_to_publish_p99_ms,
-                  lat.capture_to_publish_max_ms, lat.segment_p50_ms, lat.segment_p99_ms,
-                  static_cast<unsigned long long>(lat.frames));
+    error = daemon->error();
+    stats = daemon->stats();
     Log(LogLevel::kInfo,
-        "done: " + std::to_string(s.frames_captured) + " captured, " +
-            std::to_string(s.frames_processed) + " processed, " +
-            std::to_string(s.frames_published) + " published, " + std::to_string(s.frames_dropped) +
-            " dropped, " + std::to_string(s.publish_failures) + " publish failures" +
-            (s.frames_publish_dropped > 0
-                 ? ", " + std::to_string(s.frames_publish_dropped) + " dropped before the transport"
-                 : "") +
-            (s.overlay_failures + s.overlays_dropped > 0
-                 ? ", overlays " + std::to_string(s.overlays_written) + " written / " +
-                       std::to_string(s.overlays_dropped) + " dropped / " +
-                       std::to_string(s.overlay_failures) + " failed"
-                 : "") +
-            latency + (code == kExitOk ? "" : "; error: " + daemon->error()));
+        Summary(stats, daemon->run_latency()) + (code == kExitOk ? "" : "; error: " + error));
   }
   // Close LCM (a file:// log is flushed and complete) before the OpenNI2 shutdown, which takes
-  // about half a second; a second signal that arrives meanwhile stays pending and is ignored.
+  // about half a second.
+  const uint64_t messages_published = bus->published();
+  instances.reset();  // it handles messages on the bus
   bus.reset();
+  const std::string log_problem = log_guard ? log_guard->Verify(messages_published) : "";
   ShutdownSourceDrivers();
-  close(signal_fd);
+  if (code == kExitOk && stats.source.all_empty()) {
+    Log(LogLevel::kError, "every one of the " + std::to_string(stats.source.frames_delivered) +
+                              " frames the source delivered was empty (no depth measurement): "
+                              "check the recording, the depth scale and the intrinsics");
+    code = kExitFailure;
+  }
+  if (code == kExitOk) {
+    const std::vector<std::string> missing = Undelivered(stats, log_problem);
+    if (!missing.empty()) {
+      std::string what;
+      for (const std::string& m : missing) what += (what.empty() ? "" : "; ") + m;
+      Log(LogLevel::kError, "incomplete: " + what);
+      code = kExitIncomplete;
+    }
+  }
   return code;
 }
 
 // Blocks the stop and reload signals before main() (after the shared libraries are loaded and
-// initialised), so that a signal sent right after start-up is taken by the signalfd in Run()
-// and ends the daemon in order instead of killing it with the default action.
+// initialised), so that a signal sent right after start-up waits for the SignalWatcher in
+// Run() instead of killing the process with the default action.
 __attribute__((constructor)) void BlockSignalsEarly() { BlockDaemonSignals(); }
 
 }  // namespace

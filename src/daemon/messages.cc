@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cstring>
+#include <optional>
 #include <stdexcept>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/depth_image_t.hpp"
 #include "clutterseg/label_image_codec.hpp"
 #include "clutterseg/label_image_t.hpp"
@@ -143,6 +145,25 @@ void EncodeLabelImage(const core::LabelImage& labels, const FrameInfo& info,
 }
 
 void DecodeLabelImage(const clutterseg::label_image_t& msg, core::LabelImage* labels) {
+  // The frame limits of every reader (core::FrameLimits), checked before anything is
+  // allocated: a hostile message is an error, not an allocation (the codec checks the rest).
+  if (msg.width > 0 && msg.height > 0) {
+    if (const std::optional<std::string> too_large =
+            core::FrameLimits{}.CheckImage(msg.width, msg.height, sizeof(uint32_t))) {
+      labels->Reset(0, 0);
+      throw std::runtime_error("label_image_t: declared size " + *too_large);
+    }
+    // Deflate expands by at most 1032:1: a short stream cannot hold a large image.
+    const uint64_t raw_bytes =
+        2 * static_cast<uint64_t>(msg.width) * static_cast<uint64_t>(msg.height);
+    if (msg.compression == clutterseg::label_image_t::COMPRESSION_ZLIB &&
+        raw_bytes > 1032 * static_cast<uint64_t>(msg.data.size()) + 1024) {
+      labels->Reset(0, 0);
+      throw std::runtime_error("label_image_t: " + std::to_string(msg.data.size()) +
+                               " zlib bytes cannot hold " + std::to_string(raw_bytes / 2) +
+                               " labels");
+    }
+  }
   std::string error;
   if (!clutterseg::DecodeLabelImage(msg, &labels->data, &error)) {
     labels->Reset(0, 0);

@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/daemon/instance_watch.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/version.h"
 
@@ -69,6 +70,11 @@ void StatusReporter::Finish() {
   Report();  // the final state: end of stream or error, final counters
 }
 
+std::string StatusReporter::last_line() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return last_line_;
+}
+
 RunLatency StatusReporter::run_latency() const {
   std::lock_guard<std::mutex> lock(mutex_);
   RunLatency r;
@@ -117,6 +123,9 @@ void StatusReporter::Report() {
   s.camera_name = camera_name_;
   s.source = source_;
   s.version = kVersion;
+  s.instance_id = ThisProcess().instance_id;
+  s.hostname = ThisProcess().hostname;
+  s.pid = ThisProcess().pid;
   s.fps = static_cast<float>(fps);
   s.uptime_s = static_cast<float>(std::chrono::duration<double>(now - start_).count());
   s.segment_p50_ms = static_cast<float>(seg.p50_ms);
@@ -157,18 +166,18 @@ void StatusReporter::Report() {
   s.last_error = c.last_error;
   publish_(s);
 
-  if (LogEnabled(LogLevel::kInfo)) {
-    std::fprintf(stderr,
-                 "clutterseg: %5.1f fps | segment p50 %6.1f p99 %6.1f ms | capture->publish "
-                 "p50 %6.1f p99 %6.1f ms | objects %d | queue %d/%d | dropped %lld | "
-                 "published %llu | %s%s\n",
-                 fps, seg.p50_ms, seg.p99_ms, c2p.p50_ms, c2p.p99_ms, s.last_num_objects,
-                 s.queue_depth, s.queue_capacity, static_cast<long long>(s.frames_dropped),
-                 static_cast<unsigned long long>(c.frames_published), s.device_state_name.c_str(),
-                 s.publish_failures > 0
-                     ? (" | publish failures " + std::to_string(s.publish_failures)).c_str()
-                     : "");
-  }
+  char line[512];
+  std::snprintf(line, sizeof(line),
+                "%5.1f fps | segment p50 %6.1f p99 %6.1f ms | capture->publish p50 %6.1f p99 "
+                "%6.1f ms | objects %d | queue %d/%d | dropped %lld | published %llu | %s%s",
+                fps, seg.p50_ms, seg.p99_ms, c2p.p50_ms, c2p.p99_ms, s.last_num_objects,
+                s.queue_depth, s.queue_capacity, static_cast<long long>(s.frames_dropped),
+                static_cast<unsigned long long>(c.frames_published), s.device_state_name.c_str(),
+                s.publish_failures > 0
+                    ? (" | publish failures " + std::to_string(s.publish_failures)).c_str()
+                    : "");
+  LogStatusLine(line);
+  last_line_ = line;
 }
 
 }  // namespace clutterseg::daemon

@@ -80,6 +80,8 @@ class StatusReporter {
   /// Stops the periodic reports and sends the last one.
   void Finish();
   RunLatency run_latency() const;
+  /// The latest status line (for systemd's STATUS=), empty before the first report.
+  std::string last_line() const;
 
  private:
   void Loop();
@@ -103,6 +105,7 @@ class StatusReporter {
   uint64_t last_published_{0};
   std::chrono::steady_clock::time_point last_report_{start_};
   clutterseg::status_t status_;
+  std::string last_line_;
 };
 
 }  // namespace clutterseg::daemon

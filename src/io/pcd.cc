@@ -3,12 +3,14 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <bit>
 #include <cerrno>
 #include <charconv>
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -65,6 +67,10 @@ struct Header {
 
 [[noreturn]] void Fail(const std::string& name, const std::string& what) {
   throw std::runtime_error(name + ": " + what);
+}
+
+[[noreturn]] void FailTooLarge(const std::string& name, const std::string& what) {
+  throw core::FrameTooLargeError(name + ": " + what);
 }
 
 // A short printable rendering of untrusted text for error messages.
@@ -301,8 +307,8 @@ Header ParseHeader(const char* text, size_t size, const std::string& name,
     h.height = 1;
   }
   if (h.points > limits.max_points) {
-    Fail(name, "POINTS " + std::to_string(h.points) + " exceeds the limit of " +
-                   std::to_string(limits.max_points));
+    FailTooLarge(name, "POINTS " + std::to_string(h.points) + " exceeds the limit of " +
+                           std::to_string(limits.max_points));
   }
   uint64_t wh = 0;
   if (__builtin_mul_overflow(h.width, h.height, &wh) || wh != h.points) {
@@ -313,6 +319,12 @@ Header ParseHeader(const char* text, size_t size, const std::string& name,
   if (h.width > kMaxDim || h.height > kMaxDim) {
     Fail(name, "WIDTH or HEIGHT is too large");
   }
+  // The frame limits every reader and writer shares: an organized cloud is an image.
+  const std::optional<std::string> too_large =
+      h.height > 1 ? limits.CheckImage(static_cast<int64_t>(h.width),
+                                       static_cast<int64_t>(h.height), h.point_bytes)
+                   : limits.CheckPoints(h.points, h.point_bytes);
+  if (too_large) FailTooLarge(name, "declared size " + *too_large);
   return h;
 }
 
@@ -590,11 +602,21 @@ void DecodeAscii(const Header& h, const char* text, size_t available, const std:
   }
 }
 
+// A file can hold at most a header and `max_bytes` of data.
+void CheckFileSize(const std::string& name, uint64_t size, const ReadLimits& limits) {
+  if (size - std::min<uint64_t>(size, limits.max_header_bytes) > limits.max_bytes) {
+    FailTooLarge(name, "the file of " + std::to_string(size) +
+                           " bytes exceeds the frame limit of " + std::to_string(limits.max_bytes) +
+                           " bytes of data plus a " + std::to_string(limits.max_header_bytes) +
+                           "-byte header");
+  }
+}
+
 // Reads a whole regular file into `cached` (reused per thread) or, when larger than
 // kMaxCachedScratchBytes, into `large`. Returns the bytes. A plain read, not mmap: a file
 // truncated by another process while it is read must give an error, not SIGBUS.
-std::string_view ReadWholeFile(const std::string& path, std::vector<char>* cached,
-                               std::vector<char>* large) {
+std::string_view ReadWholeFile(const std::string& path, const ReadLimits& limits,
+                               std::vector<char>* cached, std::vector<char>* large) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) Fail(path, std::string("cannot open: ") + std::strerror(errno));
   const FdCloser closer{fd};
@@ -603,6 +625,7 @@ std::string_view ReadWholeFile(const std::string& path, std::vector<char>* cache
   if (!S_ISREG(st.st_mode)) Fail(path, "not a regular file");
   const size_t size = static_cast<size_t>(st.st_size);
   if (size == 0) Fail(path, "empty file");
+  CheckFileSize(path, size, limits);
   std::vector<char>* buffer = size <= kMaxCachedScratchBytes ? cached : large;
   if (buffer->size() < size) buffer->resize(size);
   size_t got = 0;
@@ -643,6 +666,7 @@ void AppendUintText(uint32_t v, std::string* out) {
 void ReadPcdFromMemory(const void* data, size_t size, const std::string& name,
                        const ReadLimits& limits, core::PointCloud* cloud) {
   if (size == 0) Fail(name, "empty file");
+  CheckFileSize(name, size, limits);
   const char* text = static_cast<const char*>(data);
   const Header h = ParseHeader(text, size, name, limits);
   const size_t available = size - h.data_offset;
@@ -672,7 +696,7 @@ void ReadPcd(const std::string& path, const ReadLimits& limits, core::PointCloud
   // The file bytes go to a per-thread buffer, like the decoding scratch (see DecodeCompressed).
   thread_local std::vector<char> file_buffer;
   std::vector<char> large;
-  const std::string_view bytes = ReadWholeFile(path, &file_buffer, &large);
+  const std::string_view bytes = ReadWholeFile(path, limits, &file_buffer, &large);
   ReadPcdFromMemory(bytes.data(), bytes.size(), path, limits, cloud);
 }
 
@@ -682,7 +706,8 @@ core::PointCloud ReadPcd(const std::string& path, const ReadLimits& limits) {
   return cloud;
 }
 
-void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncoding encoding) {
+void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncoding encoding,
+              const core::FrameLimits& limits) {
   const size_t n = cloud.size();
   CLUTTERSEG_DEMAND(cloud.rgba.empty() || cloud.rgba.size() == n);
   CLUTTERSEG_DEMAND(cloud.label.empty() || cloud.label.size() == n);
@@ -694,8 +719,17 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
     width = static_cast<size_t>(cloud.width);
     height = static_cast<size_t>(cloud.height);
   }
+  // Refuse what ReadPcd would refuse under the same limits (20-byte records), before the
+  // file is touched.
+  constexpr uint64_t kRecordBytes = 20;
+  const std::optional<std::string> too_large =
+      cloud.organized() ? limits.CheckImage(cloud.width, cloud.height, kRecordBytes)
+                        : limits.CheckPoints(n, kRecordBytes);
+  if (too_large) FailTooLarge(path, "cannot write a cloud: size " + *too_large);
   // The compressed size words are 32-bit; 21 leaves room for LZF expansion.
-  CLUTTERSEG_DEMAND(n <= std::numeric_limits<uint32_t>::max() / 21);
+  if (n > std::numeric_limits<uint32_t>::max() / 21) {
+    Fail(path, "cannot write " + std::to_string(n) + " points: more than a PCD file can hold");
+  }
   auto rgba_at = [&](size_t i) { return cloud.rgba.empty() ? 0xff000000u : cloud.rgba[i]; };
   auto label_at = [&](size_t i) { return cloud.label.empty() ? 0u : cloud.label[i]; };
 
@@ -704,6 +738,7 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
   out += "SIZE 4 4 4 4 4\nTYPE F F F U U\nCOUNT 1 1 1 1 1\n";
   out += "WIDTH " + std::to_string(width) + "\nHEIGHT " + std::to_string(height) + "\n";
   out += "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS " + std::to_string(n) + "\n";
+  const size_t header_bytes = out.size() + 32;  // with the DATA line
   switch (encoding) {
     case PcdEncoding::kAscii: {
       out += "DATA ascii\n";
@@ -750,6 +785,15 @@ void WritePcd(const std::string& path, const core::PointCloud& cloud, PcdEncodin
       AppendU32(static_cast<uint32_t>(planes.size()), &out);
       out.append(reinterpret_cast<const char*>(packed.data()), packed.size());
       break;
+    }
+  }
+
+  // The reader refuses files of more than a header and `max_bytes` of data (ascii text can
+  // be larger than the binary records).
+  if (out.size() > header_bytes) {
+    if (const std::optional<std::string> data_too_large =
+            limits.CheckBytes(out.size() - header_bytes)) {
+      FailTooLarge(path, "cannot write the cloud: its data of " + *data_too_large);
     }
   }
 

@@ -2,14 +2,17 @@
 
 #include <string>
 
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/point_cloud.h"
 
 namespace clutterseg::io {
 
-/// Limits that protect the readers against hostile headers.
-struct ReadLimits {
-  size_t max_points{64u * 1024u * 1024u};  ///< refuse files declaring more points
-  size_t max_header_bytes{64u * 1024u};    ///< refuse headers longer than this
+/// Limits of the PCD reader: the frame limits every reader and writer shares
+/// (core::FrameLimits: width, height, points, bytes of the file and of its decoded data) plus
+/// the longest header. Every size a header declares is checked against them before anything
+/// is allocated; a file larger than `max_bytes` plus the header is refused before it is read.
+struct ReadLimits : core::FrameLimits {
+  size_t max_header_bytes{64u * 1024u};  ///< refuse headers longer than this
 };
 
 /// Reads a PCD v0.7 (or 0.6/0.5) file: organized or not, DATA ascii, binary or
@@ -17,6 +20,8 @@ struct ReadLimits {
 /// fields are skipped. Fills `xyz`, and `rgba` / `label` when present (`rgba` from a field
 /// named `rgba`, or from packed `rgb`, which is reported with alpha 0xFF). Integer labels of
 /// any size are converted to uint32. Little-endian data; `VIEWPOINT` is ignored.
+/// Organized clouds (HEIGHT > 1) must fit `limits` as an image (WIDTH x HEIGHT), every cloud
+/// as points (POINTS and the bytes of its records).
 /// @throws std::runtime_error naming the file and what is wrong (malformed header, truncated
 /// data, sizes beyond `limits`). Never allocates more than the file can justify.
 core::PointCloud ReadPcd(const std::string& path, const ReadLimits& limits = {});
@@ -40,8 +45,11 @@ enum class PcdEncoding { kAscii, kBinary, kBinaryCompressed };
 
 /// Writes `cloud` as PCD v0.7 with fields x y z rgba label (PCL's PointXYZRGBL layout; rgba
 /// is 0xFF000000 and label 0 when the cloud has none). Organized clouds keep width/height.
-/// @throws std::runtime_error when the file cannot be written.
+/// A cloud the reader would refuse under `limits` (the same core::FrameLimits) is refused
+/// before anything is written, so every file WritePcd writes, ReadPcd reads back.
+/// @throws std::runtime_error naming the file when the cloud exceeds `limits` or the file
+/// cannot be written completely (open, write, e.g. a full disk, or close failed).
 void WritePcd(const std::string& path, const core::PointCloud& cloud,
-              PcdEncoding encoding = PcdEncoding::kBinary);
+              PcdEncoding encoding = PcdEncoding::kBinary, const core::FrameLimits& limits = {});
 
 }  // namespace clutterseg::io

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -18,7 +19,9 @@
 namespace clutterseg::io {
 namespace {
 
-constexpr png_uint_32 kMaxPngDim = 16384;
+// Largest ancillary chunk (text, ICC profile) libpng may allocate: a compressed text chunk
+// must not inflate into gigabytes.
+constexpr png_alloc_size_t kMaxChunkBytes = 8u << 20;
 // Deflate cannot expand by more than about 1032:1; a declared image larger than this factor
 // times the file size is refused before its buffer is allocated.
 constexpr size_t kMaxInflateRatio = 1100;
@@ -31,6 +34,7 @@ constexpr size_t kMaxJsonBytes = 1u << 20;
 // Carries libpng's error message out of its callbacks (which must not throw).
 struct PngError {
   char message[256]{};
+  bool too_large{false};  // the declared size exceeds the frame limits
 };
 
 void OnPngError(png_structp png, png_const_charp msg) {
@@ -76,8 +80,8 @@ struct ReadGuard {
 // Decodes a PNG into rows of big-endian grey16 (kDepth16) or RGB8 (kRgb8). Returns false with
 // `err` filled on failure. Every object with a destructor lives from before setjmp, so the
 // longjmp out of libpng skips none.
-bool DecodePng(std::FILE* file, size_t file_size, Want want, std::vector<uint8_t>* pixels,
-               int* width_out, int* height_out, PngError* err) {
+bool DecodePng(std::FILE* file, size_t file_size, Want want, const core::FrameLimits& limits,
+               std::vector<uint8_t>* pixels, int* width_out, int* height_out, PngError* err) {
   ReadGuard g;
   std::vector<png_bytep> rows;
   g.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, err, OnPngError, OnPngWarning);
@@ -93,13 +97,22 @@ bool DecodePng(std::FILE* file, size_t file_size, Want want, std::vector<uint8_t
   if (setjmp(png_jmpbuf(g.png))) return false;
 
   png_init_io(g.png, file);
-  png_set_user_limits(g.png, kMaxPngDim, kMaxPngDim);
+  // libpng's own size limits are lifted to PNG's maximum so that the frame limits below
+  // give the message; nothing is allocated for the image before they are checked.
+  png_set_user_limits(g.png, 0x7fffffffu, 0x7fffffffu);
+  png_set_chunk_malloc_max(g.png, kMaxChunkBytes);
   png_read_info(g.png, g.info);
   png_uint_32 width = 0;
   png_uint_32 height = 0;
   int bit_depth = 0;
   int color_type = 0;
   png_get_IHDR(g.png, g.info, &width, &height, &bit_depth, &color_type, nullptr, nullptr, nullptr);
+  if (const std::optional<std::string> too_large =
+          limits.CheckImage(width, height, want == Want::kDepth16 ? 2 : 3)) {
+    std::snprintf(err->message, sizeof err->message, "declared size %s", too_large->c_str());
+    err->too_large = true;
+    return false;
+  }
   const size_t raw_bytes = (png_get_rowbytes(g.png, g.info) + 1) * size_t{height};
   if (raw_bytes > file_size * kMaxInflateRatio) {
     std::snprintf(err->message, sizeof err->message,
@@ -194,13 +207,23 @@ FilePtr OpenForRead(const std::string& path, size_t* size) {
   return f;
 }
 
-void ReadPngFile(const std::string& path, Want want, std::vector<uint8_t>* pixels, int* width,
-                 int* height) {
+void ReadPngFile(const std::string& path, Want want, const core::FrameLimits& limits,
+                 std::vector<uint8_t>* pixels, int* width, int* height) {
   size_t size = 0;
   FilePtr f = OpenForRead(path, &size);
   PngError err;
-  if (!DecodePng(f.get(), size, want, pixels, width, height, &err)) {
+  if (!DecodePng(f.get(), size, want, limits, pixels, width, height, &err)) {
+    if (err.too_large) throw core::FrameTooLargeError(path + ": " + err.message);
     Fail(path, err.message[0] != '\0' ? err.message : "cannot decode PNG");
+  }
+}
+
+void CheckWritable(const std::string& path, int width, int height, uint64_t bytes_per_pixel,
+                   const core::FrameLimits& limits) {
+  if (width <= 0 || height <= 0) Fail(path, "cannot write an empty image");
+  if (const std::optional<std::string> too_large =
+          limits.CheckImage(width, height, bytes_per_pixel)) {
+    throw core::FrameTooLargeError(path + ": cannot write an image: size " + *too_large);
   }
 }
 
@@ -210,8 +233,11 @@ void WritePngFile(const std::string& path, int width, int height, int bit_depth,
   FilePtr f(std::fopen(path.c_str(), "wb"));
   if (f == nullptr) Fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
   PngError err;
+  errno = 0;
   if (!EncodePng(f.get(), width, height, bit_depth, color_type, bytes, &err)) {
-    Fail(path, std::string("cannot write PNG: ") + err.message);
+    const int saved_errno = errno;
+    Fail(path, std::string("cannot write PNG: ") + err.message +
+                   (saved_errno != 0 ? std::string(": ") + std::strerror(saved_errno) : ""));
   }
   std::FILE* raw = f.release();
   const bool flushed = std::ferror(raw) == 0;
@@ -288,7 +314,8 @@ void ReadCameraMatrix(const std::string& path, const char* key, const JsonValue&
 
 }  // namespace
 
-core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm) {
+core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm,
+                              const core::FrameLimits& limits) {
   if (!(scale_to_mm > 0.0 && std::isfinite(scale_to_mm))) {
     throw std::invalid_argument("scale_to_mm = " + std::to_string(scale_to_mm) +
                                 " is invalid (expected a positive factor)");
@@ -296,7 +323,7 @@ core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm) {
   std::vector<uint8_t> bytes;
   int width = 0;
   int height = 0;
-  ReadPngFile(path, Want::kDepth16, &bytes, &width, &height);
+  ReadPngFile(path, Want::kDepth16, limits, &bytes, &width, &height);
   core::DepthImage image(width, height);
   for (size_t i = 0; i < image.data.size(); ++i) {
     const uint32_t raw = (uint32_t{bytes[2 * i]} << 8) | bytes[2 * i + 1];
@@ -310,11 +337,11 @@ core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm) {
   return image;
 }
 
-core::ColorImage ReadColorPng(const std::string& path) {
+core::ColorImage ReadColorPng(const std::string& path, const core::FrameLimits& limits) {
   std::vector<uint8_t> bytes;
   int width = 0;
   int height = 0;
-  ReadPngFile(path, Want::kRgb8, &bytes, &width, &height);
+  ReadPngFile(path, Want::kRgb8, limits, &bytes, &width, &height);
   core::ColorImage image(width, height);
   for (size_t i = 0; i < image.data.size(); ++i) {
     image.data[i] = core::Rgb8{bytes[3 * i], bytes[3 * i + 1], bytes[3 * i + 2]};
@@ -322,8 +349,10 @@ core::ColorImage ReadColorPng(const std::string& path) {
   return image;
 }
 
-void WriteColorPng(const std::string& path, const core::ColorImage& image) {
+void WriteColorPng(const std::string& path, const core::ColorImage& image,
+                   const core::FrameLimits& limits) {
   CLUTTERSEG_DEMAND(image.data.size() == static_cast<size_t>(image.width) * image.height);
+  CheckWritable(path, image.width, image.height, 3, limits);
   std::vector<uint8_t> bytes(image.data.size() * 3);
   for (size_t i = 0; i < image.data.size(); ++i) {
     bytes[3 * i] = image.data[i].r;
@@ -333,8 +362,10 @@ void WriteColorPng(const std::string& path, const core::ColorImage& image) {
   WritePngFile(path, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, &bytes);
 }
 
-void WriteDepthPng(const std::string& path, const core::DepthImage& image) {
+void WriteDepthPng(const std::string& path, const core::DepthImage& image,
+                   const core::FrameLimits& limits) {
   CLUTTERSEG_DEMAND(image.data.size() == static_cast<size_t>(image.width) * image.height);
+  CheckWritable(path, image.width, image.height, 2, limits);
   std::vector<uint8_t> bytes(image.data.size() * 2);
   for (size_t i = 0; i < image.data.size(); ++i) {
     bytes[2 * i] = static_cast<uint8_t>(image.data[i] >> 8);
@@ -411,8 +442,9 @@ core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path) {
 
 core::PointCloud ReadDepthPngCloud(const std::string& depth_png,
                                    const core::CameraIntrinsics& intrinsics,
-                                   const std::string& color_png, double scale_to_mm) {
-  const core::DepthImage depth = ReadDepthPng(depth_png, scale_to_mm);
+                                   const std::string& color_png, double scale_to_mm,
+                                   const core::FrameLimits& limits) {
+  const core::DepthImage depth = ReadDepthPng(depth_png, scale_to_mm, limits);
   if (depth.width != intrinsics.width || depth.height != intrinsics.height) {
     Fail(depth_png, "depth image is " + std::to_string(depth.width) + "x" +
                         std::to_string(depth.height) + " but the intrinsics are for " +
@@ -420,7 +452,7 @@ core::PointCloud ReadDepthPngCloud(const std::string& depth_png,
   }
   core::ColorImage color;
   if (!color_png.empty()) {
-    color = ReadColorPng(color_png);
+    color = ReadColorPng(color_png, limits);
     if (color.width != depth.width || color.height != depth.height) {
       Fail(color_png, "colour image is " + std::to_string(color.width) + "x" +
                           std::to_string(color.height) + " but the depth image " + depth_png +

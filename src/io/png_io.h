@@ -3,34 +3,41 @@
 #include <string>
 
 #include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/types.h"
 
 namespace clutterseg::io {
 
 // All functions here are thread-safe (no shared state) and name the file in every error.
-// Images larger than 16384 px per side, or larger than the file could decompress to, are
-// refused before their buffers are allocated.
+// The readers check the size a PNG declares against `limits` (core::FrameLimits: width,
+// height, pixels and bytes of the decoded image) and against what the file could decompress
+// to before any image buffer is allocated; the writers refuse images the readers would
+// refuse under the same limits.
 
 /// Reads a 16-bit single-channel PNG of depth values. Values are multiplied by `scale_to_mm`
 /// (1 for millimetre PNGs, 0.2 for TUM's value/5000 m), rounded and clamped to 65535.
 /// @throws std::runtime_error naming the file when it is not a 16-bit grey PNG (8-bit and
 /// colour PNGs are refused) or is corrupt. @throws std::invalid_argument when `scale_to_mm`
 /// is not a positive finite number.
-core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm = 1.0);
+core::DepthImage ReadDepthPng(const std::string& path, double scale_to_mm = 1.0,
+                              const core::FrameLimits& limits = {});
 
 /// Reads a colour PNG as 8-bit RGB: RGB and RGBA (alpha dropped), grey (replicated) and
 /// palette images are expanded, 16-bit channels reduced to 8 bits.
 /// @throws std::runtime_error naming the file on error.
-core::ColorImage ReadColorPng(const std::string& path);
+core::ColorImage ReadColorPng(const std::string& path, const core::FrameLimits& limits = {});
 
 /// Writes an 8-bit RGB PNG, favouring speed over size (zlib level 1, Sub filter).
-/// @throws std::runtime_error naming the file on I/O failure.
-void WriteColorPng(const std::string& path, const core::ColorImage& image);
+/// @throws std::runtime_error naming the file when the image exceeds `limits` or on I/O
+/// failure (every write and the close are checked: a full disk is an error).
+void WriteColorPng(const std::string& path, const core::ColorImage& image,
+                   const core::FrameLimits& limits = {});
 
 /// Writes a 16-bit grey PNG (e.g. depth in mm), big-endian as PNG requires; same speed-first
-/// settings as WriteColorPng. @throws std::runtime_error naming the file on I/O failure.
-void WriteDepthPng(const std::string& path, const core::DepthImage& image);
+/// settings and errors as WriteColorPng.
+void WriteDepthPng(const std::string& path, const core::DepthImage& image,
+                   const core::FrameLimits& limits = {});
 
 /// Reads intrinsics from a small JSON file with keys fx, fy, cx, cy and optionally width,
 /// height (640x480 when absent). Also accepted: the members of a nested {"camera": {...}};
@@ -47,6 +54,7 @@ core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path);
 /// intrinsics and the colour image disagree in size.
 core::PointCloud ReadDepthPngCloud(const std::string& depth_png,
                                    const core::CameraIntrinsics& intrinsics,
-                                   const std::string& color_png = "", double scale_to_mm = 1.0);
+                                   const std::string& color_png = "", double scale_to_mm = 1.0,
+                                   const core::FrameLimits& limits = {});
 
 }  // namespace clutterseg::io

@@ -59,7 +59,7 @@ std::string NestedYaml(const std::string& path, const std::string& value) {
 TEST(DaemonConfig, EmptyDocumentGivesDefaults) {
   const DaemonConfig dut = ParseConfig("", "empty.yaml");
   EXPECT_EQ(ConfigToYaml(dut), ConfigToYaml(DaemonConfig{}));
-  EXPECT_EQ(dut.lcm.url, "udpm://239.255.76.67:7667?ttl=0");
+  EXPECT_EQ(dut.lcm.url, "") << "empty: LCM_DEFAULT_URL, else LCM's default";
   EXPECT_EQ(dut.lcm.objects_channel, "CLUTTERSEG_OBJECTS");
   EXPECT_EQ(dut.lcm.labels_channel, "CLUTTERSEG_LABELS");
   EXPECT_EQ(dut.lcm.status_channel, "CLUTTERSEG_STATUS");
@@ -218,6 +218,17 @@ TEST(DaemonConfig, OutOfRangeValuesAreNamed) {
 
   e = ParseError("status:\n  period_s: nan\n");
   EXPECT_NE(e.find("status.period_s"), std::string::npos) << e;
+
+  // Channel names within LCM's limit (63 bytes, no spaces), one per message type.
+  e = ParseError("lcm:\n  objects_channel: " + std::string(64, 'X') + "\n");
+  EXPECT_NE(e.find("lcm.objects_channel"), std::string::npos) << e;
+  EXPECT_NE(e.find("63"), std::string::npos) << e;
+  e = ParseError("lcm:\n  status_channel: \"MY STATUS\"\n");
+  EXPECT_NE(e.find("lcm.status_channel"), std::string::npos) << e;
+  e = ParseError("lcm:\n  labels_channel: CLUTTERSEG_OBJECTS\n");
+  EXPECT_NE(e.find("lcm.labels_channel"), std::string::npos) << e;
+  EXPECT_NE(e.find("other than lcm.objects_channel"), std::string::npos) << e;
+  EXPECT_EQ(ParseError("lcm:\n  objects_channel: " + std::string(63, 'X') + "\n"), "");
 }
 
 TEST(DaemonConfig, SyntaxErrorsAndMissingFilesNameTheFile) {

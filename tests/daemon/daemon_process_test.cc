@@ -2,17 +2,22 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/un.h>
 
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "clutterseg/version.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 
@@ -183,6 +188,215 @@ TEST_F(DaemonProcess, PublishesOverUdpmInAPrivateNamespace) {
   std::string sub_err;
   EXPECT_EQ(testutil::Wait(&sub, seconds(60), &sub_err), 0) << sub_err;
   EXPECT_NE(sub_err.find("received " + std::to_string(kFrames)), std::string::npos) << sub_err;
+}
+
+// Two daemons on two cameras publish on one udpm bus and are told apart by camera name; a
+// Python subscriber with our own transport (Debian has no python3-lcm) receives both and
+// decodes their label images.
+TEST_F(DaemonProcess, TwoCamerasOnOneUdpmBusReachAPythonSubscriber) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  testutil::NetNamespace ns(/*route=*/true);
+  if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  const auto dir = testing::ScratchDir("daemon_process_two_cameras");
+  const auto ready = dir / "ready";
+  const std::string script =
+      std::string(CLUTTERSEG_SOURCE_DIR) + "/tests/daemon/python_udpm_subscriber.py";
+  std::string err;
+  testutil::Child sub = testutil::Spawn(ns.Exec(
+      {"/usr/bin/env", std::string("PYTHONPATH=") + CLUTTERSEG_PYTHON_BINDINGS, "python3", script,
+       url + "&recv_buf_size=4194304", ready.string(), std::to_string(kFrames), "left", "right"}));
+  ASSERT_GT(sub.pid, 0);
+  for (int i = 0; i < 1000 && !std::filesystem::exists(ready); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_TRUE(std::filesystem::exists(ready)) << "the Python subscriber did not start";
+  testutil::Child left =
+      testutil::Spawn(ns.Exec({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "max",
+                               "--lcm-url", url, "--set", "camera_name=left"}));
+  testutil::Child right =
+      testutil::Spawn(ns.Exec({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "max",
+                               "--lcm-url", url, "--set", "camera_name=right"}));
+  EXPECT_EQ(testutil::Wait(&left, std::chrono::minutes(5), &err), 0) << err;
+  EXPECT_EQ(testutil::Wait(&right, std::chrono::minutes(5), &err), 0) << err;
+  std::string sub_err;
+  EXPECT_EQ(testutil::Wait(&sub, seconds(90), &sub_err), 0) << sub_err;
+}
+
+// Two daemons of one camera on one bus would interleave their objects_t: the second is
+// refused (exit 2) after listening one status period, naming the first; told to skip the
+// check it runs, and the first reports the clash.
+TEST_F(DaemonProcess, SameCameraTwiceOnOneUdpmBusIsRefused) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  testutil::NetNamespace ns(/*route=*/true);
+  if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
+  const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  auto daemon = [&](const std::vector<std::string>& extra) {
+    std::vector<std::string> argv = {
+        CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed",        "realtime", "--loop",
+        "--lcm-url",           url,        "--set",   "camera_name=arm"};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return ns.Exec(argv);
+  };
+  testutil::Child first = testutil::Spawn(daemon({}));
+  ASSERT_GT(first.pid, 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2500));  // its check, then a status
+
+  std::string err;
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(testutil::Run(daemon({"--max-frames", "5"}), seconds(60), &err), kExitUsage) << err;
+  std::printf("second daemon refused after %.1f s\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  EXPECT_NE(err.find("already publishes camera 'arm' on CLUTTERSEG_STATUS"), std::string::npos)
+      << err;
+  EXPECT_NE(err.find("pid "), std::string::npos) << err;
+
+  EXPECT_EQ(testutil::Run(daemon({"--max-frames", "60", "--set", "lcm.check_instances=false"}),
+                          seconds(60), &err),
+            kExitOk)
+      << err;
+  ASSERT_EQ(kill(first.pid, SIGTERM), 0);
+  std::string first_err;
+  EXPECT_EQ(testutil::Wait(&first, seconds(20), &first_err), kExitOk) << first_err;
+  EXPECT_NE(first_err.find("already publishes camera 'arm'"), std::string::npos)
+      << "the running daemon reports the clash:\n"
+      << first_err;
+}
+
+// Sets an environment variable for the scope (the spawned daemon inherits it).
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const std::string& value) : name_(name) {
+    const char* old = std::getenv(name);
+    if (old != nullptr) old_ = old;
+    had_ = old != nullptr;
+    setenv(name, value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (had_) {
+      setenv(name_, old_.c_str(), 1);
+    } else {
+      unsetenv(name_);
+    }
+  }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::string old_;
+  bool had_{false};
+};
+
+TEST_F(DaemonProcess, TellsSystemdWhenReadyAndKeepsTheWatchdogAlive) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  // A notification socket as systemd offers one to a Type=notify unit.
+  const auto dir = testing::ScratchDir("daemon_process_notify");
+  const std::string path = (dir / "notify.sock").string();
+  const int sock = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  ASSERT_GE(sock, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  std::snprintf(addr.sun_path, sizeof(addr.sun_path), "%s", path.c_str());
+  ASSERT_EQ(bind(sock, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
+  const timeval tv{0, 100000};
+  setsockopt(sock, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof(tv));
+  // Read as systemd does, while the daemon runs: a notification socket nobody reads fills up
+  // and blocks the sender.
+  std::vector<std::string> messages;
+  std::atomic<bool> done{false};
+  std::thread reader([&] {
+    char buf[4096];
+    while (!done.load()) {
+      const ssize_t n = recv(sock, buf, sizeof(buf), 0);
+      if (n > 0) messages.emplace_back(buf, static_cast<size_t>(n));
+    }
+  });
+  std::string err;
+  int rc = -1;
+  {
+    ScopedEnv notify("NOTIFY_SOCKET", path);
+    ScopedEnv watchdog("WATCHDOG_USEC", "5000000");
+    // The 5-frame recording looped at its 30 Hz for about two seconds.
+    testutil::Child child =
+        testutil::Spawn({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "realtime",
+                         "--loop", "--max-frames", "60", "--lcm-url", "memq://"});
+    rc = testutil::Wait(&child, std::chrono::minutes(2), &err);
+  }
+  done = true;
+  reader.join();
+  close(sock);
+  ASSERT_EQ(rc, 0) << err;
+  int ready = 0, keepalive = 0, status = 0;
+  for (const std::string& m : messages) {
+    ready += m.find("READY=1") != std::string::npos ? 1 : 0;
+    keepalive += m == "WATCHDOG=1" ? 1 : 0;
+    status += m.rfind("STATUS=", 0) == 0 && m.find("frames published") != std::string::npos;
+  }
+  EXPECT_EQ(ready, 1) << "READY=1 exactly once, after the source and LCM opened";
+  EXPECT_GE(keepalive, 2) << "a keep-alive at least every half watchdog period while publishing";
+  EXPECT_GE(status, 1);
+}
+
+TEST_F(DaemonProcess, LogLinesCarryJournalPrioritiesUnderJournald) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  const auto dir = testing::ScratchDir("daemon_process_journal");
+  const std::string err_file = (dir / "stderr.txt").string();
+  std::ofstream(err_file).close();
+  struct stat st {};
+  ASSERT_EQ(stat(err_file.c_str(), &st), 0);
+  std::string err;
+  int rc = -1;
+  {
+    // systemd names the journal stream it gives a service as JOURNAL_STREAM=dev:ino.
+    ScopedEnv journal("JOURNAL_STREAM",
+                      std::to_string(st.st_dev) + ":" + std::to_string(st.st_ino));
+    rc = testutil::Run(
+        {"/bin/sh", "-c",
+         std::string("exec '") + CLUTTERSEG_DAEMON_EXE +
+             "' --speed max --lcm-url memq:// --source /nonexistent.oni 2>> '" + err_file + "'"},
+        std::chrono::minutes(2), &err);
+  }
+  EXPECT_EQ(rc, kExitSourceUnavailable);
+  std::ifstream in(err_file);
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // The failure is an error-priority line; nothing is printed without a priority.
+  EXPECT_NE(text.find("<3>"), std::string::npos) << text;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty()) continue;
+    EXPECT_EQ(line[0], '<') << "a line without priority: " << line;
+  }
+}
+
+TEST_F(DaemonProcess, HonoursLcmDefaultUrlAndPrintsItsVersion) {
+  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
+  const auto log = testing::ScratchDir("daemon_process_default_url") / "env.lcmlog";
+  std::string err;
+  int rc = -1;
+  {
+    ScopedEnv url("LCM_DEFAULT_URL", "file://" + log.string() + "?mode=w");
+    rc = testutil::Run({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "max"},
+                       std::chrono::minutes(2), &err);
+  }
+  ASSERT_EQ(rc, 0) << err;
+  int objects = 0;
+  for (const auto& ev : testutil::ReadLcmLog(log.string())) {
+    objects += ev.channel == "CLUTTERSEG_OBJECTS" ? 1 : 0;
+  }
+  EXPECT_EQ(objects, kFrames) << "published to LCM_DEFAULT_URL when lcm.url is empty";
+  // --version: the project's version, exit 0.
+  const std::string out_file = (log.parent_path() / "version.txt").string();
+  ASSERT_EQ(testutil::Run({"/bin/sh", "-c",
+                           std::string("exec '") + CLUTTERSEG_DAEMON_EXE + "' --version > '" +
+                               out_file + "'"},
+                          std::chrono::seconds(30), &err),
+            0)
+      << err;
+  std::ifstream in(out_file);
+  std::string version;
+  std::getline(in, version);
+  EXPECT_EQ(version, std::string("clutterseg ") + kVersion);
 }
 
 }  // namespace

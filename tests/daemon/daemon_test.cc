@@ -63,7 +63,8 @@ struct RunResult {
 };
 
 RunResult RunDaemon(const DaemonConfig& c, std::unique_ptr<core::FrameSource> source,
-                    const std::function<void(Daemon*)>& during = {}) {
+                    const std::function<void(Daemon*)>& during = {},
+                    const std::function<void(Daemon*)>& before_start = {}) {
   LcmBus bus(c.lcm.url);
   RunResult run;
   bus.Subscribe<clutterseg::objects_t>(
@@ -77,6 +78,7 @@ RunResult RunDaemon(const DaemonConfig& c, std::unique_ptr<core::FrameSource> so
   });
   {
     Daemon dut(c, std::move(source), &bus);
+    if (before_start) before_start(&dut);
     dut.Start();
     if (during) during(&dut);
     EXPECT_TRUE(dut.WaitFor(std::chrono::minutes(5))) << "the daemon did not finish";
@@ -305,6 +307,33 @@ TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
   EXPECT_EQ(run.stats.frames_published, run.got.objects.size());
   EXPECT_EQ(run.stats.frames_captured,
             run.stats.frames_processed + run.stats.frames_dropped + run.stats.frames_discarded);
+}
+
+// A stop signal between opening the source and starting the threads (the daemon attaches its
+// signal handling there): the run ends at once, publishes no frame and still sends its last
+// status_t.
+TEST(DaemonScripted, StopBetweenOpenAndStartEndsAtOnceWithAStatus) {
+  auto frames = testutil::LoadMosdFrames(1);
+  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  testutil::Script s;
+  s.live = true;
+  s.period_us = 5000;
+  s.total_frames = -1;
+  DaemonConfig c = MemqConfig();
+  c.capture.speed = Speed::kRealtime;
+  const auto t0 = std::chrono::steady_clock::now();
+  const RunResult run =
+      RunDaemon(c, std::make_unique<testutil::ScriptedSource>(frames, s), {}, [](Daemon* d) {
+        d->Open();
+        d->RequestStop();
+      });
+  const double s_taken =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("stop between Open and Start: ended in %.3f s\n", s_taken);
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  EXPECT_EQ(run.stats.frames_published, 0u);
+  EXPECT_TRUE(run.got.objects.empty());
+  EXPECT_FALSE(run.got.status.empty()) << "a last status_t";
 }
 
 }  // namespace

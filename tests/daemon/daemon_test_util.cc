@@ -163,48 +163,6 @@ bool SampleProc(pid_t pid, ProcSample* sample) {
   return true;
 }
 
-LcmLogScan ScanLcmLog(const std::string& path) {
-  LcmLogScan scan;
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    scan.problem = "cannot open " + path;
-    return scan;
-  }
-  const std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)),
-                                   std::istreambuf_iterator<char>());
-  scan.file_bytes = bytes.size();
-  auto be32 = [&](size_t at) {
-    return (uint32_t{bytes[at]} << 24) | (uint32_t{bytes[at + 1]} << 16) |
-           (uint32_t{bytes[at + 2]} << 8) | uint32_t{bytes[at + 3]};
-  };
-  constexpr size_t kHeader = 4 + 8 + 8 + 4 + 4;
-  size_t pos = 0;
-  while (pos < bytes.size()) {
-    if (bytes.size() - pos < kHeader) {
-      scan.problem = "truncated event header at byte " + std::to_string(pos);
-      return scan;
-    }
-    if (be32(pos) != 0xEDA1DA01u) {
-      scan.problem = "no sync word at byte " + std::to_string(pos);
-      return scan;
-    }
-    const uint64_t channel_len = be32(pos + 20);
-    const uint64_t data_len = be32(pos + 24);
-    const uint64_t end = pos + kHeader + channel_len + data_len;
-    if (end > bytes.size()) {
-      scan.problem = "truncated event at byte " + std::to_string(pos) + " (needs " +
-                     std::to_string(end - pos) + " bytes, " + std::to_string(bytes.size() - pos) +
-                     " left)";
-      return scan;
-    }
-    pos = static_cast<size_t>(end);
-    scan.parsed_bytes = pos;
-    ++scan.events;
-  }
-  scan.complete = true;
-  return scan;
-}
-
 std::vector<LogEvent> ReadLcmLog(const std::string& path) {
   std::vector<LogEvent> events;
   lcm::LogFile log(path, "r");

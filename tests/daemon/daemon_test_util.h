@@ -12,6 +12,8 @@
 
 #include <sys/types.h>
 
+#include "clutterseg/daemon/lcm_log_file.h"
+
 namespace clutterseg::daemon::testutil {
 
 /// Writes an ONI recording of `frames` real Kinect frames (mOSD learn0, learn1, ...; depth +
@@ -47,17 +49,10 @@ bool SignalBlocked(pid_t pid, int sig);
 /// Samples /proc/<pid>; false when the process is gone.
 bool SampleProc(pid_t pid, ProcSample* sample);
 
-/// The structure of an LCM event log file as found on disk, parsed independently of liblcm
-/// (big-endian events: sync 0xEDA1DA01, eventnum, utime, channel length, data length,
-/// channel, data).
-struct LcmLogScan {
-  size_t events{0};
-  uint64_t file_bytes{0};
-  uint64_t parsed_bytes{0};  ///< bytes covered by complete events
-  bool complete{false};      ///< every byte belongs to a complete event
-  std::string problem;       ///< what is wrong when not complete
-};
-LcmLogScan ScanLcmLog(const std::string& path);
+/// The structure of an LCM event log file as found on disk (the daemon's own scanner, which
+/// reads the format without liblcm).
+using daemon::LcmLogScan;
+using daemon::ScanLcmLog;
 
 /// One event of an LCM log.
 struct LogEvent {

@@ -176,6 +176,32 @@ TEST(OpenNI2SourceTest, LoopRestartsTheRecording) {
   }
 }
 
+// A looped recording at the recorded rate keeps that rate on every pass: each pass starts at
+// the first frame's timestamp again, which must not make the later passes run unpaced.
+TEST(OpenNI2SourceTest, LoopedRecordedSpeedIsPacedOnEveryPass) {
+  const auto dir = testing::ScratchDir("openni2_loop_paced");
+  const std::string path = (dir / "rec.oni").string();
+  constexpr int kFrames = 4;
+  testutil::WriteTestOni(path, kFrames, false, 160, 120);
+  OpenNI2Source src(FileOptions(path, 1.0, true));
+  src.Open();
+  core::RgbdFrame frame;
+  constexpr int kReads = 4 * kFrames;
+  std::vector<int64_t> received;
+  for (int n = 0; n < kReads; ++n) {
+    ASSERT_EQ(src.Read(2000, &frame), ReadStatus::kOk) << "read " << n << ": " << src.last_error();
+    received.push_back(frame.receive_utime);
+  }
+  // Within each pass frames are at least most of a period apart (paced, not read at once);
+  // the pause between passes is not asserted (the first frame of a pass is due at once).
+  int paced_gaps = 0;
+  for (int n = 1; n < kReads; ++n) {
+    if (n % kFrames == 0) continue;
+    paced_gaps += received[n] - received[n - 1] >= kFramePeriodUs * 8 / 10;
+  }
+  EXPECT_EQ(paced_gaps, kReads - kReads / kFrames) << "frames of a later pass came unpaced";
+}
+
 TEST(OpenNI2SourceTest, ReopenAfterClose) {
   const auto dir = testing::ScratchDir("openni2_reopen");
   const std::string path = (dir / "rec.oni").string();

@@ -463,6 +463,9 @@ TEST_F(PcdMalformedTest, HugePointCountsFailWithoutAllocating) {
   // to allocate would surface as std::bad_alloc, not std::runtime_error.
   ReadLimits unlimited;
   unlimited.max_points = std::numeric_limits<size_t>::max();
+  unlimited.max_width = std::numeric_limits<int>::max();
+  unlimited.max_height = std::numeric_limits<int>::max();
+  unlimited.max_bytes = std::numeric_limits<uint64_t>::max();
   auto organized = [](const std::string& data) {
     return "VERSION 0.7\nFIELDS x y z rgba label\nSIZE 4 4 4 4 4\nTYPE F F F U U\n"
            "COUNT 1 1 1 1 1\nWIDTH 2000000\nHEIGHT 2000000\nPOINTS 4000000000000\nDATA " +

@@ -23,11 +23,13 @@
 #include <sys/resource.h>
 
 #include "clutterseg/config/segmenter_keys.h"
+#include "clutterseg/core/exit_codes.h"
 #include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/segmenter.h"
 #include "clutterseg/pipeline/segmenter_params.h"
+#include "clutterseg/version.h"
 #include "tools/bench/alloc_counter.h"
 #include "tools/bench/frame_set.h"
 #if CLUTTERSEG_BENCH_HAVE_PCL
@@ -410,10 +412,11 @@ int Run(int argc, char** argv) {
                  "segmenter parameter KEY=VALUE (keys of the configuration's segmenter "
                  "section, e.g. supervoxel.refinement_iterations=0); repeatable");
   app.add_option("--json", opt.json_path, "also write the JSON summary line to this file");
+  app.set_version_flag("--version", std::string("clutterseg-bench ") + clutterseg::kVersion);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    return app.exit(e) == 0 ? kExitOk : kExitUsage;
   }
   if (opt.dir.empty() == (opt.synthetic == 0)) {
     throw std::invalid_argument("give either DIR or --synthetic N (not both)");
@@ -687,7 +690,7 @@ int Run(int argc, char** argv) {
     out << json << '\n';
     if (!out) throw std::runtime_error("cannot write JSON file '" + opt.json_path + "'");
   }
-  return 0;
+  return kExitOk;
 }
 
 }  // namespace
@@ -696,8 +699,11 @@ int Run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return clutterseg::bench::Run(argc, argv);
+  } catch (const std::invalid_argument& e) {  // bad options or parameters
+    std::cerr << "clutterseg-bench: error: " << e.what() << '\n';
+    return clutterseg::kExitUsage;
   } catch (const std::exception& e) {
     std::cerr << "clutterseg-bench: error: " << e.what() << '\n';
-    return 1;
+    return clutterseg::kExitFailure;
   }
 }

@@ -8,7 +8,8 @@
 #                                               bindings (with the label image codec),
 #                                               clutterseg-spy
 #
-# Layout under the prefix (GNUInstallDirs; with --prefix /usr the config goes to /etc):
+# Layout under the prefix (GNUInstallDirs; the presets configure CMAKE_INSTALL_PREFIX=/usr,
+# Debian's layout; stage elsewhere with DESTDIR=/some/root cmake --install build/release):
 #   bin/                                   clutterseg, clutterseg-segment, -eval, -synth, ...
 #   include/clutterseg/<module>/           library headers; include/clutterseg/*.hpp bindings
 #   lib/<multiarch>/                       libclutterseg_<module>.a, cmake/clutterseg/,
@@ -18,7 +19,7 @@
 #   share/java/clutterseg_lcmtypes.jar     Java bindings (lcm-spy)
 #   share/clutterseg/lcmtypes/clutterseg/  the .lcm files
 #   share/clutterseg/config/               paper.yaml, previous-defaults.yaml (and the shipped defaults)
-#   etc/clutterseg/clutterseg.yaml         the daemon's configuration
+#   /etc/clutterseg/clutterseg.yaml        the daemon's configuration (the prefix's sysconfdir)
 #   lib/systemd/system/clutterseg.service, lib/udev/rules.d/50-clutterseg.rules
 include_guard(GLOBAL)
 include(GNUInstallDirs)
@@ -36,6 +37,9 @@ foreach(t clutterseg clutterseg-segment clutterseg-eval clutterseg-synth clutter
     install(TARGETS ${t} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT daemon)
   endif()
 endforeach()
+
+install(PROGRAMS "${PROJECT_SOURCE_DIR}/tools/clutterseg-spy.sh" RENAME clutterseg-spy
+        DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT bindings)
 
 # ---- the library package ------------------------------------------------------------------
 get_property(_libs GLOBAL PROPERTY CLUTTERSEG_INSTALLED_LIBRARIES)
@@ -73,8 +77,10 @@ install(FILES "${PROJECT_BINARY_DIR}/clutterseg.pc"
         DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig COMPONENT dev)
 
 # ---- configuration, service, udev, docs ---------------------------------------------------
+# The daemon's configuration: /etc/clutterseg with the /usr prefix (GNUInstallDirs' full
+# sysconfdir, so also with DESTDIR staging and in the package).
 install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml"
-        DESTINATION ${CMAKE_INSTALL_SYSCONFDIR}/clutterseg COMPONENT daemon)
+        DESTINATION ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg COMPONENT daemon)
 install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml" "${PROJECT_SOURCE_DIR}/config/paper.yaml"
               "${PROJECT_SOURCE_DIR}/config/previous-defaults.yaml"
         DESTINATION ${CMAKE_INSTALL_DATADIR}/clutterseg/config COMPONENT daemon)
@@ -109,7 +115,8 @@ set(CPACK_DEBIAN_DAEMON_PACKAGE_DEPENDS "libopenni2-0")
 set(CPACK_DEBIAN_DAEMON_PACKAGE_RECOMMENDS "clutterseg-lcmtypes (= ${PROJECT_VERSION})")
 set(CPACK_DEBIAN_DAEMON_DESCRIPTION
     "clutterseg segmentation daemon and tools\n Reads an Asus Xtion / PrimeSense camera through OpenNI2 (or replays .oni\n recordings, PCD and depth PNG directories), segments every frame into objects\n and support planes and publishes them over LCM. Ships the systemd unit, the\n udev rule for the cameras and the documentation.")
-set(CPACK_DEBIAN_DAEMON_PACKAGE_CONTROL_EXTRA "${PROJECT_SOURCE_DIR}/tools/packaging/postinst"
+set(CPACK_DEBIAN_DAEMON_PACKAGE_CONTROL_EXTRA "${PROJECT_SOURCE_DIR}/tools/packaging/conffiles"
+    "${PROJECT_SOURCE_DIR}/tools/packaging/postinst"
     "${PROJECT_SOURCE_DIR}/tools/packaging/postrm")
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME libclutterseg-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
@@ -120,7 +127,8 @@ set(CPACK_DEBIAN_DEV_DESCRIPTION
 set(CPACK_DEBIAN_BINDINGS_PACKAGE_NAME clutterseg-lcmtypes)
 set(CPACK_DEBIAN_BINDINGS_PACKAGE_ARCHITECTURE all)
 set(CPACK_DEBIAN_BINDINGS_PACKAGE_DEPENDS "python3")
-set(CPACK_DEBIAN_BINDINGS_PACKAGE_SUGGESTS "liblcm-dev, liblcm-java, libjchart2d-java, default-jre-headless")
+set(CPACK_DEBIAN_BINDINGS_PACKAGE_RECOMMENDS "liblcm-java, libjchart2d-java, default-jre, unzip")
+set(CPACK_DEBIAN_BINDINGS_PACKAGE_SUGGESTS "liblcm-dev")
 set(CPACK_DEBIAN_BINDINGS_DESCRIPTION
     "clutterseg LCM message types and bindings\n The .lcm files of the clutterseg messages and their generated bindings: C++\n headers, the Python package clutterseg (with a pure-Python LCM subscriber and the\n label image codec, no lcm module needed) and the Java jar for lcm-spy\n (clutterseg-spy).")
 include(CPack)
