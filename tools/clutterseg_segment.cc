@@ -1,5 +1,5 @@
-// clutterseg-segment: segments organized point clouds (PCD) or depth PNGs into objects and
-// writes a labelled PCD, the objects as JSON and an overlay PNG.
+// clutterseg-segment: segments point clouds (PCD, organized or not) or depth PNGs into objects
+// and writes a labelled PCD, the objects as JSON and an overlay PNG.
 //
 // Outputs are checked before anything is read: an output that is one of the inputs (the
 // same file, also through a link), an output written twice, or (without --force) an existing
@@ -59,9 +59,34 @@ struct Options {
   double depth_scale_to_mm{1.0};
   int threads{0};
   int lanes{0};
+  int png_scale{1};
   bool quiet{false};
   bool force{false};
 };
+
+// `in` made `factor` times smaller in each direction, each pixel the mean of its factor x factor
+// block (a partial block at the right or bottom edge is averaged over the pixels it has).
+void Shrink(const core::ColorImage& in, int factor, core::ColorImage* out) {
+  const int w = (in.width + factor - 1) / factor, h = (in.height + factor - 1) / factor;
+  out->Reset(w, h);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      unsigned r = 0, g = 0, b = 0, n = 0;
+      for (int y = v * factor; y < std::min(in.height, (v + 1) * factor); ++y) {
+        for (int x = u * factor; x < std::min(in.width, (u + 1) * factor); ++x) {
+          const core::Rgb8& c = in.at(x, y);
+          r += c.r;
+          g += c.g;
+          b += c.b;
+          ++n;
+        }
+      }
+      out->at(u, v) =
+          core::Rgb8{static_cast<uint8_t>((r + n / 2) / n), static_cast<uint8_t>((g + n / 2) / n),
+                     static_cast<uint8_t>((b + n / 2) / n)};
+    }
+  }
+}
 
 // Writes `text` to `path` (created or truncated), checking every write and the close.
 void WriteTextFile(const std::string& path, const std::string& text) {
@@ -151,15 +176,13 @@ void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
                                    core::FrameLimits{});
     return;
   }
+  // Organized or not (HEIGHT 1): the labels follow the input's points either way. The
+  // intrinsics are used for an organized cloud, and to draw an unorganized one (--png).
   io::ReadPcd(in.string(), io::ReadLimits{}, cloud);
-  if (!cloud->organized()) {
-    throw std::runtime_error(in.string() +
-                             ": the cloud is not organized (HEIGHT 1); clutterseg-segment needs an "
-                             "organized depth image layout");
-  }
   *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
                                             : io::ReadIntrinsicsJson(opt.intrinsics_file);
-  if (intrinsics->width != cloud->width || intrinsics->height != cloud->height) {
+  if (cloud->organized() &&
+      (intrinsics->width != cloud->width || intrinsics->height != cloud->height)) {
     *intrinsics = intrinsics->Scaled(cloud->width, cloud->height);
   }
 }
@@ -215,7 +238,7 @@ std::string CheckOutputs(const std::vector<FileUse>& inputs, const std::vector<F
 int main(int argc, char** argv) {
   Options opt;
   CLI::App app{
-      "Segments an organized point cloud (PCD) or a depth PNG into objects.\n"
+      "Segments a point cloud (PCD, organized or not) or a depth PNG into objects.\n"
       "IN and OUT may also be two directories: every *.pcd / *.png of IN is segmented into "
       "OUT/<name>.pcd (then --json and --png name directories)."};
   app.add_option("IN", opt.input, "input .pcd, depth .png (millimetres), or a directory")
@@ -226,7 +249,13 @@ int main(int argc, char** argv) {
   app.add_option("--set", opt.overrides,
                  "override a segmenter parameter, e.g. --set supervoxel.seed_resolution_m=0.02");
   app.add_option("--json", opt.json_out, "write the objects and planes as JSON");
-  app.add_option("--png", opt.png_out, "write an overlay PNG of the objects");
+  app.add_option("--png", opt.png_out,
+                 "write an overlay PNG of the objects (an unorganized cloud is drawn through "
+                 "the intrinsics)");
+  app.add_option("--png-scale", opt.png_scale,
+                 "write the overlay PNG this many times smaller in each direction (block mean)")
+      ->check(CLI::Range(1, 16))
+      ->capture_default_str();
   app.add_option("--intrinsics", opt.intrinsics_file,
                  "camera intrinsics JSON (default fx=fy=525, cx=319.5, cy=239.5)");
   app.add_option("--color", opt.color_png, "colour PNG registered to a depth PNG input");
@@ -360,8 +389,9 @@ int main(int argc, char** argv) {
   }
   // Per-lane buffers (index = lane): a PCD after another allocates nothing.
   struct LaneBuffers {
-    core::PointCloud cloud;
-    core::ColorImage base, overlay;
+    core::PointCloud cloud, view;
+    core::LabelImage view_labels;
+    core::ColorImage base, overlay, small;
     std::string message;       // progress line or error
     std::string times_line;    // --times JSON line
     bool write_failed{false};  // the frame failed writing its outputs (not reading its input)
@@ -396,9 +426,20 @@ int main(int argc, char** argv) {
       io::WritePcd(job.out.string(), b.cloud, io::PcdEncoding::kBinary);
       if (!job.json.empty()) WriteObjectsJson(job.json.string(), job.in.string(), result);
       if (!job.png.empty()) {
-        pipeline::CloudToImage(b.cloud, &b.base);
-        pipeline::RenderOverlay(result.labels, &b.base, &b.overlay);
-        io::WriteColorPng(job.png.string(), b.overlay);
+        if (b.cloud.organized()) {
+          pipeline::CloudToImage(b.cloud, &b.base);
+          pipeline::RenderOverlay(result.labels, &b.base, &b.overlay);
+        } else {  // drawn through the intrinsics, for display only
+          pipeline::ProjectForDisplay(b.cloud, result.labels, k, &b.view, &b.view_labels);
+          pipeline::CloudToImage(b.view, &b.base);
+          pipeline::RenderOverlay(b.view_labels, &b.base, &b.overlay);
+        }
+        if (opt.png_scale > 1) {
+          Shrink(b.overlay, opt.png_scale, &b.small);
+          io::WriteColorPng(job.png.string(), b.small);
+        } else {
+          io::WriteColorPng(job.png.string(), b.overlay);
+        }
       }
     } catch (...) {
       b.write_failed = true;

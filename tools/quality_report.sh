@@ -48,7 +48,7 @@ row "rho 15 mm, inlier angle 15 deg" --set planes.inlier_distance_m=0.015 --set 
 row "no feature term (kappa_f = 0)" --set planes.feature_weight=0
 row "distance-only data term (normal_mismatch_cost = 0)" --set planes.normal_mismatch_cost=0
 row "keep segments below the support (margin 0)" --set objects.below_support_margin_m=0
-row "depth range to 4 m" --set objects.max_depth_m=4
+row "depth range to 4 m" --set points.max_depth_m=4
 row "2 supervoxel refinement iterations" --set supervoxel.refinement_iterations=2
 row "1 growth region (VCCS)" --set supervoxel.growth_regions=1
 row "snap object points within 5 mm of a support to background" --set objects.support_snap_distance_m=0.005

@@ -35,6 +35,13 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(linkage, cut_on_type_change),
       CLUTTERSEG_SEGMENTER_KEY(linkage, convexity_epsilon),
       CLUTTERSEG_SEGMENTER_KEY(linkage, min_segment_supervoxels),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, sanity_min_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, depth_jump_rel),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, depth_jump_fraction),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, depth_jump_min_pairs),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, crease_min_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, color_threshold),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, color_min_angle_deg),
 
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_angle_deg),
@@ -58,6 +65,13 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, support_min_area_m2),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_snap_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, below_support_margin_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, plane_merge_max_pair_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(objects, above_support_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_release_fraction),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_release_min_height_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_passes),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_max_step_rel),
+      CLUTTERSEG_SEGMENTER_KEY(objects, merge_small_groups),
   };
   return kKeys;
 }

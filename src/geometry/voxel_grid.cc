@@ -217,6 +217,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   const bool with_color = mean_color && cloud.rgba.size() == n && n > 0;
   grid->width = cloud.width;
   grid->height = cloud.height;
+  grid->params = params_;
 
   // 1. Per band of points (fixed size, so the partition does not depend on the pool): keys,
   // distinct keys in first-occurrence order and their sums. Neighbouring pixels mostly share

@@ -47,6 +47,8 @@ struct VoxelCoord {
 struct VoxelGrid {
   int width{0};   ///< of the source cloud
   int height{0};  ///< of the source cloud
+  /// The parameters the grid was built with (the quantised space of `coord`).
+  VoxelGridParams params;
   /// Per source point: index of its voxel, or -1 for an invalid / ignored point.
   std::vector<int32_t> point_voxel;
 
@@ -78,6 +80,12 @@ struct VoxelGrid {
   size_t size() const { return centroid.size(); }
   /// Index of the voxel at `c`, or -1 when it is empty. O(log N).
   int32_t FindVoxel(const VoxelCoord& c) const;
+  /// Angle a voxel at depth z (metres) subtends as seen from the camera, radians (x/z units):
+  /// the resolution with the single-camera transform, resolution / z without.
+  float ViewAngleAt(float z_m) const {
+    return params.use_single_camera_transform ? params.voxel_resolution_m
+                                              : params.voxel_resolution_m / z_m;
+  }
 };
 
 /// Packs in-range voxel coordinates (each in (-2^20 + 2, 2^20 - 2)) into a 63-bit key whose

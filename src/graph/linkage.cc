@@ -1,18 +1,27 @@
 #include "clutterseg/graph/linkage.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
 #include "clutterseg/core/scoped_timer.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace clutterseg::graph {
 namespace {
 
 constexpr size_t kNodeGrain = 512;
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+constexpr float kNever = std::numeric_limits<float>::infinity();
+constexpr size_t kRowGrain = 32;  // rows per band of the image border pass
+constexpr size_t kVoxelGrain = 2048;
 
 int32_t Find(std::vector<int32_t>& parent, int32_t x) {
   int32_t root = x;
@@ -42,13 +51,92 @@ void CheckAdjacency(const supervoxel::Supervoxels& sv) {
   }
 }
 
-}  // namespace
+#if defined(__SSE2__)
+// A bit per lane of x and y whose labels differ and are both valid (>= 0).
+inline unsigned DifferingValid(__m128i x, __m128i y) {
+  const unsigned equal =
+      static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_cmpeq_epi32(x, y))));
+  const unsigned invalid =
+      static_cast<unsigned>(_mm_movemask_ps(_mm_castsi128_ps(_mm_or_si128(x, y))));
+  return ~(equal | invalid) & 0xfu;
+}
+#endif
 
-bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core::Vec3f& cj,
-                        const core::Vec3f& nj, const LinkageParams& params) {
+// For a mask of 8 pairs of four pixels u..u + 3 (bits 0-3: (u + k, u + k + 1), bits 4-7:
+// (u + k, u + k + w)): the codes (2 k | direction) of the set bits first, and their count.
+constexpr std::array<std::array<uint8_t, 8>, 256> kPairCode = [] {
+  std::array<std::array<uint8_t, 8>, 256> t{};
+  for (unsigned m = 0; m < 256; ++m) {
+    unsigned n = 0;
+    for (unsigned k = 0; k < 8; ++k) {
+      if ((m >> k) & 1u) t[m][n++] = static_cast<uint8_t>(k < 4 ? 2 * k : 2 * (k - 4) + 1);
+    }
+  }
+  return t;
+}();
+constexpr std::array<uint8_t, 256> kBitCount = [] {
+  std::array<uint8_t, 256> t{};
+  for (unsigned m = 0; m < 256; ++m) {
+    for (unsigned k = 0; k < 8; ++k) t[m] += static_cast<uint8_t>((m >> k) & 1u);
+  }
+  return t;
+}();
+
+// The CSR slot of edge (lo, hi), lo < hi, in lo's neighbour list, or UINT32_MAX, with the
+// slots of recent pairs in a small direct-mapped cache: border pairs repeat the same few
+// supervoxel pairs.
+class SlotCache {
+ public:
+  SlotCache(const uint32_t* offsets, const uint32_t* adjacency) : off_(offsets), adj_(adjacency) {
+    entries_.fill(Entry{UINT64_MAX, UINT32_MAX});
+  }
+  uint32_t Slot(uint32_t lo, uint32_t hi) {
+    const uint64_t pair = (uint64_t{lo} << 32) | hi;
+    Entry& e = entries_[((lo * 31u + hi) * 2654435761u) >> 24];
+    if (e.pair != pair) {
+      e.pair = pair;
+      const uint32_t* first = adj_ + off_[lo];
+      const uint32_t* end = adj_ + off_[lo + 1];
+      const uint32_t* it = std::lower_bound(first, end, hi);
+      e.slot = it != end && *it == hi ? static_cast<uint32_t>(it - adj_) : UINT32_MAX;
+    }
+    return e.slot;
+  }
+
+ private:
+  struct Entry {
+    uint64_t pair;
+    uint32_t slot;
+  };
+  const uint32_t* off_;
+  const uint32_t* adj_;
+  std::array<Entry, 256> entries_;
+};
+
+// Connections whose normals' cosine exceeds this skip the sanity criterion (2: none does).
+double SanityMinCos(const LinkageParams& params) {
+  return params.sanity_min_angle_deg > 0.f
+             ? std::cos(double{params.sanity_min_angle_deg} / kRadToDeg)
+             : 2.0;
+}
+
+// The verdict of LCCP's convexity test on one connection.
+enum ConnectionClass : uint8_t {
+  kConvex = 0,        // convex, or concave below the tolerance (and below crease_min_deg)
+  kMildConcave = 1,   // kept: concave within the tolerance, normal angle >= crease_min_deg
+  kSharpConcave = 2,  // cut: concave beyond the tolerance
+  kSanityCut = 3,     // cut by the sanity criterion
+};
+
+// `sanity_min_cos`: the cosine of params.sanity_min_angle_deg (connections with a larger
+// cosine skip the sanity criterion).
+ConnectionClass ClassifyConnection(const core::Vec3f& ci, const core::Vec3f& ni,
+                                   const core::Vec3f& cj, const core::Vec3f& nj,
+                                   const LinkageParams& params, double sanity_min_cos,
+                                   float crease_min_deg) {
   double dx = double{ci.x} - cj.x, dy = double{ci.y} - cj.y, dz = double{ci.z} - cj.z;
   const double dlen = std::sqrt(dx * dx + dy * dy + dz * dz);
-  if (!(dlen > 0.0)) return true;  // coincident centroids: no evidence of a concavity
+  if (!(dlen > 0.0)) return kConvex;  // coincident centroids: no evidence of a concavity
   dx /= dlen;
   dy /= dlen;
   dz /= dlen;
@@ -64,12 +152,10 @@ bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core
   // Convexity: (n_i - n_j) . d >= -epsilon, or a concavity shallower than the tolerance.
   const double convexity =
       (double{ni.x} - nj.x) * dx + (double{ni.y} - nj.y) * dy + (double{ni.z} - nj.z) * dz;
-  if (convexity < -double{params.convexity_epsilon} &&
-      !(normal_angle_deg() < params.concavity_tolerance_deg)) {
-    return false;
-  }
+  const bool concave = convexity < -double{params.convexity_epsilon};
+  if (concave && !(normal_angle_deg() < params.concavity_tolerance_deg)) return kSharpConcave;
 
-  if (params.use_sanity_criterion) {
+  if (params.use_sanity_criterion && !(cos_a > sanity_min_cos)) {
     // s = n_i x n_j; theta = min(angle(d, s), angle(d, -s)); cut when theta is below
     // 60 / (1 + exp(-0.25 (a - 25))) degrees. That threshold never exceeds 60 degrees, so
     // connections with theta >= 60 (cos theta <= 0.5) pass without evaluating it.
@@ -82,18 +168,25 @@ bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core
       if (c > 0.5) {
         const double theta_deg = std::acos(c) * kRadToDeg;
         const double threshold_deg = 60.0 / (1.0 + std::exp(-0.25 * (normal_angle_deg() - 25.0)));
-        if (theta_deg < threshold_deg) return false;
+        if (theta_deg < threshold_deg) return kSanityCut;
       }
     }
   }
-  return true;
+  return concave && normal_angle_deg() >= crease_min_deg ? kMildConcave : kConvex;
+}
+
+}  // namespace
+
+bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core::Vec3f& cj,
+                        const core::Vec3f& nj, const LinkageParams& params) {
+  return ClassifyConnection(ci, ni, cj, nj, params, SanityMinCos(params), kNever) <= kMildConcave;
 }
 
 Linkage::Linkage(const LinkageParams& params, core::ThreadPool* pool)
     : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
 void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
-                      LinkageResult* out) {
+                      const LinkageCues& cues, LinkageResult* out) {
   const core::ScopedTimer timer(&out->time_ms);
   const size_t n = sv.size();
   if (f.size() != n || f.normal.size() != n || f.type.size() != n) {
@@ -159,20 +252,96 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   });
 
   // Convexity per undirected edge, mirrored to the reverse slot.
-  convex_raw_.assign(slots, 0);
+  const bool crease = params_.crease_min_angle_deg > 0.f;
+  const float crease_min_deg = crease ? params_.crease_min_angle_deg : kNever;
+  const double sanity_min_cos = SanityMinCos(params_);
+  convex_raw_.resize(slots);
+  edge_class_.resize(slots);
   run([&](size_t i0, size_t i1) {
     for (size_t i = i0; i < i1; ++i) {
       for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
         const uint32_t j = adj[s];
         if (j < i) continue;
-        const uint8_t c =
-            IsConvexConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j], params_) ? 1
-                                                                                                : 0;
-        convex_raw_[s] = c;
-        convex_raw_[reverse_slot_[s]] = c;
+        const ConnectionClass c =
+            ClassifyConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j], params_,
+                               sanity_min_cos, crease_min_deg);
+        edge_class_[s] = edge_class_[reverse_slot_[s]] = c;
+        convex_raw_[s] = convex_raw_[reverse_slot_[s]] = c <= kMildConcave ? 1 : 0;
       }
     }
   });
+
+  // Cues that cut edges the convexity test keeps, judged on the test's verdicts (none reads
+  // another's cuts): flags per slot of the lower id, applied afterwards.
+  const bool jumps = params_.depth_jump_rel > 0.f;
+  const bool image_jumps = jumps && cues.cloud != nullptr && cues.cloud->organized() &&
+                           sv.width == cues.cloud->width && sv.height == cues.cloud->height &&
+                           sv.pixel_label.size() == cues.cloud->xyz.size();
+  const bool view_jumps = jumps && !image_jumps && cues.voxels != nullptr &&
+                          cues.voxel_supervoxel != nullptr &&
+                          cues.voxel_supervoxel->size() == cues.voxels->size();
+  const bool color = params_.color_threshold > 0.f && cues.cloud != nullptr &&
+                     cues.cloud->has_color() && cues.cloud->rgba.size() == sv.pixel_label.size();
+  if (crease || image_jumps || view_jumps || color) {
+    if (image_jumps) CountImageBorderPairs(sv, *cues.cloud);
+    if (view_jumps) CountViewBorderPairs(sv, *cues.voxels, *cues.voxel_supervoxel);
+    if (color) MeanChroma(sv, *cues.cloud);
+    const float cos_color =
+        static_cast<float>(std::cos(double{params_.color_min_angle_deg} / kRadToDeg));
+    const float color_limit2 = params_.color_threshold * params_.color_threshold;
+    cue_cut_.assign(slots, 0);
+    run([&](size_t i0, size_t i1) {
+      for (size_t i = i0; i < i1; ++i) {
+        for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
+          const uint32_t j = adj[s];
+          if (j < i || !convex_raw_[s]) continue;
+          bool cut = false;
+          if (crease && edge_class_[s] == kMildConcave) {
+            // A common neighbour with a sharp concavity to either end: the sorted neighbour
+            // lists of i and j, walked together.
+            uint32_t a = off[i], b = off[j];
+            while (!cut && a < off[i + 1] && b < off[j + 1]) {
+              if (adj[a] < adj[b]) {
+                ++a;
+              } else if (adj[b] < adj[a]) {
+                ++b;
+              } else {
+                cut = edge_class_[a] == kSharpConcave || edge_class_[b] == kSharpConcave;
+                ++a;
+                ++b;
+              }
+            }
+          }
+          if (!cut && jumps && (image_jumps || view_jumps)) {
+            const uint32_t pairs = border_pairs_[s];
+            cut = pairs >= static_cast<uint32_t>(params_.depth_jump_min_pairs) &&
+                  static_cast<float>(jump_pairs_[s]) >=
+                      params_.depth_jump_fraction * static_cast<float>(pairs);
+          }
+          if (!cut && color) {
+            const core::Vec3f& ni = f.normal[i];
+            const core::Vec3f& nj = f.normal[j];
+            const core::Vec3f& ci = f.centroid[i];
+            const core::Vec3f& cj = f.centroid[j];
+            const float cos_a = ni.x * nj.x + ni.y * nj.y + ni.z * nj.z;
+            const float conv = (ni.x - nj.x) * (ci.x - cj.x) + (ni.y - nj.y) * (ci.y - cj.y) +
+                               (ni.z - nj.z) * (ci.z - cj.z);
+            if (cos_a <= cos_color && conv < 0.f) {
+              const float* p = &mean_chroma_[3 * i];
+              const float* q = &mean_chroma_[3 * j];
+              const float d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
+                               (p[2] - q[2]) * (p[2] - q[2]);
+              cut = d2 > color_limit2;
+            }
+          }
+          cue_cut_[s] = cut ? 1 : 0;
+        }
+      }
+    });
+    for (size_t s = 0; s < slots; ++s) {
+      if (cue_cut_[s]) convex_raw_[s] = convex_raw_[reverse_slot_[s]] = 0;
+    }
+  }
 
   // Extended convexity: count common neighbours forming convex triangles.
   if (params_.use_extended_convexity) {
@@ -284,6 +453,286 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   out->num_segments = num;
   out->segment_size.assign(num, 0);
   for (size_t i = 0; i < n; ++i) ++out->segment_size[out->segment[i]];
+}
+
+void Linkage::CountImageBorderPairs(const supervoxel::Supervoxels& sv,
+                                    const core::PointCloud& cloud) {
+  const size_t slots = sv.adjacency.size();
+  border_pairs_.assign(slots, 0);
+  jump_pairs_.assign(slots, 0);
+  const size_t w = static_cast<size_t>(sv.width), h = static_cast<size_t>(sv.height);
+  const size_t num_bands = core::ThreadPool::NumChunks(h, kRowGrain);
+  if (band_events_.size() < num_bands) band_events_.resize(num_bands);
+  if (band_pairs_.size() < num_bands) band_pairs_.resize(num_bands);
+  const int32_t* lab = sv.pixel_label.data();
+  const core::Vec3f* xyz = cloud.xyz.data();
+  const uint32_t* off = sv.adjacency_offsets.data();
+  const uint32_t* adj = sv.adjacency.data();
+  const float rel = params_.depth_jump_rel;
+  // Per band of rows: one event (slot << 1 | jumped) per pair of 4-neighbour pixels in two
+  // supervoxels whose edge the convexity test keeps (pixels of supervoxels whose voxels do
+  // not touch, behind an occluding edge, are no pair).
+  core::ForChunks(pool_, h, kRowGrain, [&](size_t r0, size_t r1) {
+    std::vector<uint32_t>& events = band_events_[r0 / kRowGrain];
+    events.clear();
+    SlotCache slot_of(off, adj);
+    // The depths of border pixels are read out of order: the row two ahead is fetched into
+    // the cache while this one is scanned.
+    constexpr size_t kLine = 64;
+    auto prefetch_row = [&](size_t v) {
+      if (v >= h) return;
+      const char* first = reinterpret_cast<const char*>(xyz + v * w);
+      const char* last = reinterpret_cast<const char*>(xyz + (v + 1) * w);
+      for (const char* c = first; c < last; c += kLine) __builtin_prefetch(c);
+    };
+    prefetch_row(r0);
+    prefetch_row(r0 + 1);
+    auto visit = [&](size_t p, size_t q) {
+      const uint32_t a = static_cast<uint32_t>(lab[p]), b = static_cast<uint32_t>(lab[q]);
+      const uint32_t slot = slot_of.Slot(std::min(a, b), std::max(a, b));
+      // Only edges the convexity test keeps can be cut.
+      if (slot == UINT32_MAX || !convex_raw_[slot]) return;
+      const float za = xyz[p].z, zb = xyz[q].z;
+      const bool jump = std::fabs(za - zb) > rel * std::min(za, zb);
+      events.push_back(slot << 1 | (jump ? 1u : 0u));
+    };
+    // First the border pixels of the band, as p << 1 | direction (0: (p, p + 1), 1: (p, p + w)):
+    // four pixels at a time, a bit per pair whose labels differ and are both valid, written
+    // out without a branch (the borders are too dense for branches to predict).
+    std::vector<uint32_t>& pairs = band_pairs_[r0 / kRowGrain];
+    pairs.resize(2 * (r1 - r0) * w + 8);
+    uint32_t* out = pairs.data();
+    size_t count = 0;
+    for (size_t v = r0; v < r1; ++v) {
+      prefetch_row(v + 2);
+      const size_t row = v * w;
+      const int32_t* here = lab + row;
+      const int32_t* below = v + 1 < h ? here + w : nullptr;
+      size_t u = 0;
+#if defined(__SSE2__)
+      for (; u + 5 <= w; u += 4) {
+        const __m128i x = _mm_loadu_si128(reinterpret_cast<const __m128i*>(here + u));
+        const __m128i r = _mm_loadu_si128(reinterpret_cast<const __m128i*>(here + u + 1));
+        unsigned m = DifferingValid(x, r);
+        if (below != nullptr) {
+          m |= DifferingValid(x, _mm_loadu_si128(reinterpret_cast<const __m128i*>(below + u))) << 4;
+        }
+        const uint32_t base = static_cast<uint32_t>(row + u) << 1;
+        const std::array<uint8_t, 8>& code = kPairCode[m];
+        for (int k = 0; k < 8; ++k) out[count + k] = base + code[k];
+        count += kBitCount[m];
+      }
+#endif
+      for (; u < w; ++u) {
+        const int32_t x = here[u];
+        const uint32_t p2 = static_cast<uint32_t>(row + u) << 1;
+        if (u + 1 < w && x != here[u + 1] && (x | here[u + 1]) >= 0) out[count++] = p2;
+        if (below != nullptr && x != below[u] && (x | below[u]) >= 0) out[count++] = p2 | 1u;
+      }
+    }
+    for (size_t k = 0; k < count; ++k) {
+      const size_t p = out[k] >> 1;
+      visit(p, (out[k] & 1u) ? p + w : p + 1);
+    }
+  });
+  for (size_t k = 0; k < num_bands; ++k) {
+    for (const uint32_t e : band_events_[k]) {
+      ++border_pairs_[e >> 1];
+      jump_pairs_[e >> 1] += e & 1u;
+    }
+  }
+}
+
+void Linkage::CountViewBorderPairs(const supervoxel::Supervoxels& sv,
+                                   const geometry::VoxelGrid& voxels,
+                                   const std::vector<int32_t>& voxel_supervoxel) {
+  const size_t slots = sv.adjacency.size();
+  border_pairs_.assign(slots, 0);
+  jump_pairs_.assign(slots, 0);
+  const size_t nv = voxels.size();
+  const uint32_t* off = sv.adjacency_offsets.data();
+  const uint32_t* adj = sv.adjacency.data();
+  const float rel = params_.depth_jump_rel;
+  // The view neighbours of a voxel: the voxels next to it in view direction (x / z, y / z),
+  // as the pixels next to a pixel are. With the single-camera transform the grid's columns
+  // of voxels sharing (x, y) are cells of view directions, and the neighbours come from the
+  // columns; otherwise from a 2-d tree over the voxels' view directions (within 1.5 voxel
+  // widths, for each other supervoxel the voxel nearest in depth).
+  const bool columns = voxels.params.use_single_camera_transform;
+  size_t num_items = nv;
+  if (columns) {
+    column_begin_.clear();
+    for (size_t v = 0; v < nv; ++v) {
+      if (v == 0 || voxels.coord[v].x != voxels.coord[v - 1].x ||
+          voxels.coord[v].y != voxels.coord[v - 1].y) {
+        column_begin_.push_back(static_cast<uint32_t>(v));
+      }
+    }
+    num_items = column_begin_.size();
+    column_begin_.push_back(static_cast<uint32_t>(nv));
+  } else {
+    view_dir_.resize(2 * nv);
+    for (size_t v = 0; v < nv; ++v) {
+      const core::Vec3f& c = voxels.centroid[v];
+      view_dir_[2 * v] = c.x / c.z;
+      view_dir_[2 * v + 1] = c.y / c.z;
+    }
+    view_index_.Build(view_dir_.data(), nv, 2);
+  }
+  const size_t num_chunks = core::ThreadPool::NumChunks(num_items, kVoxelGrain);
+  if (band_events_.size() < num_chunks) band_events_.resize(num_chunks);
+  if (chunk_found_.size() < num_chunks) chunk_found_.resize(num_chunks);
+  if (chunk_best_.size() < num_chunks) chunk_best_.resize(num_chunks);
+  // Column order is (x, y) lexicographic: the first column at or after (x, y), from `c` on.
+  const size_t num_columns = columns ? num_items : 0;
+  auto column_at_or_after = [&](size_t c, int32_t x, int32_t y) {
+    while (c < num_columns) {
+      const geometry::VoxelCoord& k = voxels.coord[column_begin_[c]];
+      if (k.x > x || (k.x == x && k.y >= y)) break;
+      ++c;
+    }
+    return c;
+  };
+  // Border pairs are counted from each voxel's side, so a border is counted from both.
+  core::ForChunks(pool_, num_items, kVoxelGrain, [&](size_t b, size_t e) {
+    const size_t k = b / kVoxelGrain;
+    std::vector<uint32_t>& events = band_events_[k];
+    std::vector<std::pair<uint32_t, float>>& found = chunk_found_[k];
+    std::vector<std::pair<uint32_t, float>>& best = chunk_best_[k];
+    events.clear();
+    SlotCache slot_of(off, adj);
+    auto evaluate = [&](size_t v) {
+      const int32_t a = voxel_supervoxel[v];
+      const float z = voxels.centroid[v].z;
+      best.clear();
+      for (const auto& [u, d2] : found) {
+        const int32_t o = voxel_supervoxel[u];
+        if (o == a) continue;
+        const float dz = voxels.centroid[u].z - z;  // signed
+        auto it = std::find_if(best.begin(), best.end(),
+                               [o](const auto& x) { return x.first == static_cast<uint32_t>(o); });
+        if (it == best.end()) {
+          best.emplace_back(static_cast<uint32_t>(o), dz);
+        } else if (std::fabs(dz) < std::fabs(it->second)) {
+          it->second = dz;
+        }
+      }
+      for (const auto& [o, dz] : best) {
+        const uint32_t slot = slot_of.Slot(std::min(static_cast<uint32_t>(a), o),
+                                           std::max(static_cast<uint32_t>(a), o));
+        if (slot == UINT32_MAX || !convex_raw_[slot]) continue;
+        const bool jump = std::fabs(dz) > rel * (z + std::min(0.f, dz));
+        events.push_back(slot << 1 | (jump ? 1u : 0u));
+      }
+    };
+    if (!columns) {
+      for (size_t v = b; v < e; ++v) {
+        const float z = voxels.centroid[v].z;
+        view_index_.WithinRadius(&view_dir_[2 * v], 1.5f * voxels.ViewAngleAt(z), &found);
+        evaluate(v);
+      }
+      return;
+    }
+    // Each voxel's view neighbours in the column grid: in its own column and in the four
+    // columns beside it (x - 1, x + 1, y - 1, y + 1), the voxel nearest to it in depth (the
+    // surface's continuation, or what lies behind or in front of it); a pair when that voxel
+    // is another supervoxel's. Two cursors find the columns of x - 1 and x + 1 (each only
+    // moves forward).
+    size_t left = 0, right = 0;
+    for (size_t c = b; c < e; ++c) {
+      const geometry::VoxelCoord& key = voxels.coord[column_begin_[c]];
+      size_t near[5];
+      size_t num_near = 0;
+      near[num_near++] = c;
+      auto add_if = [&](size_t r, int32_t x, int32_t y) {
+        if (r >= num_columns) return;
+        const geometry::VoxelCoord& o = voxels.coord[column_begin_[r]];
+        if (o.x == x && o.y == y) near[num_near++] = r;
+      };
+      left = column_at_or_after(left, key.x - 1, key.y);
+      add_if(left, key.x - 1, key.y);
+      right = column_at_or_after(right, key.x + 1, key.y);
+      add_if(right, key.x + 1, key.y);
+      if (c > 0) add_if(c - 1, key.x, key.y - 1);
+      add_if(c + 1, key.x, key.y + 1);
+      // Most columns lie inside one supervoxel with their neighbours: no pair.
+      const int32_t first_owner = voxel_supervoxel[column_begin_[c]];
+      bool uniform = true;
+      for (size_t m = 0; m < num_near && uniform; ++m) {
+        for (uint32_t u = column_begin_[near[m]]; u < column_begin_[near[m] + 1]; ++u) {
+          uniform &= voxel_supervoxel[u] == first_owner;
+        }
+      }
+      if (uniform) continue;
+      for (uint32_t v = column_begin_[c]; v < column_begin_[c + 1]; ++v) {
+        const uint32_t a = static_cast<uint32_t>(voxel_supervoxel[v]);
+        const float z = voxels.centroid[v].z;
+        for (size_t m = 0; m < num_near; ++m) {
+          const size_t r = near[m];
+          uint32_t nearest = UINT32_MAX;
+          float nearest_dz = 0.f;
+          for (uint32_t u = column_begin_[r]; u < column_begin_[r + 1]; ++u) {
+            const float dz = voxels.centroid[u].z - z;
+            if (u != v && (nearest == UINT32_MAX || std::fabs(dz) < std::fabs(nearest_dz))) {
+              nearest = u;
+              nearest_dz = dz;
+            }
+          }
+          if (nearest == UINT32_MAX) continue;
+          const uint32_t o = static_cast<uint32_t>(voxel_supervoxel[nearest]);
+          if (o == a) continue;
+          const uint32_t slot = slot_of.Slot(std::min(a, o), std::max(a, o));
+          if (slot == UINT32_MAX || !convex_raw_[slot]) continue;
+          const bool jump = std::fabs(nearest_dz) > rel * (z + std::min(0.f, nearest_dz));
+          events.push_back(slot << 1 | (jump ? 1u : 0u));
+        }
+      }
+    }
+  });
+  for (size_t k = 0; k < num_chunks; ++k) {
+    for (const uint32_t e : band_events_[k]) {
+      ++border_pairs_[e >> 1];
+      jump_pairs_[e >> 1] += e & 1u;
+    }
+  }
+}
+
+void Linkage::MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud) {
+  const size_t n = sv.size();
+  const size_t points = sv.pixel_label.size();
+  constexpr size_t kPointGrain = 65536;
+  const size_t num_bands = core::ThreadPool::NumChunks(points, kPointGrain);
+  if (band_rgb_.size() < num_bands) band_rgb_.resize(num_bands);
+  // Integer sums per band, added in any order to the same totals.
+  core::ForChunks(pool_, points, kPointGrain, [&](size_t b, size_t e) {
+    std::vector<uint32_t>& sums = band_rgb_[b / kPointGrain];
+    sums.assign(4 * n, 0);
+    for (size_t p = b; p < e; ++p) {
+      const int32_t s = sv.pixel_label[p];
+      if (s < 0) continue;
+      const uint32_t c = cloud.rgba[p];
+      uint32_t* t = &sums[4 * static_cast<size_t>(s)];
+      t[0] += (c >> 16) & 255u;
+      t[1] += (c >> 8) & 255u;
+      t[2] += c & 255u;
+      t[3] += 1;
+    }
+  });
+  mean_chroma_.assign(3 * n, 0.f);
+  for (size_t i = 0; i < n; ++i) {
+    uint64_t r = 0, g = 0, bl = 0;
+    for (size_t k = 0; k < num_bands; ++k) {
+      const uint32_t* t = &band_rgb_[k][4 * i];
+      r += t[0];
+      g += t[1];
+      bl += t[2];
+    }
+    const double sum = static_cast<double>(r + g + bl);
+    if (sum <= 0.0) continue;
+    mean_chroma_[3 * i] = static_cast<float>(255.0 * static_cast<double>(r) / sum);
+    mean_chroma_[3 * i + 1] = static_cast<float>(255.0 * static_cast<double>(g) / sum);
+    mean_chroma_[3 * i + 2] = static_cast<float>(255.0 * static_cast<double>(bl) / sum);
+  }
 }
 
 }  // namespace clutterseg::graph

@@ -3,7 +3,10 @@
 #include <cstdint>
 #include <vector>
 
+#include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/geometry/neighbor_index.h"
+#include "clutterseg/geometry/voxel_grid.h"
 #include "clutterseg/graph/linkage_params.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/supervoxel/supervoxels.h"
@@ -30,14 +33,32 @@ struct LinkageResult {
   double time_ms{0.0};
 };
 
+/// What the border cues of LinkageParams (depth jumps, colour) read besides the supervoxels.
+/// Every pointer may be null; a cue without its input is skipped.
+struct LinkageCues {
+  /// The cloud the supervoxels were made from (Supervoxels::pixel_label indexes its points):
+  /// depths across the image border of an organized cloud, and colour.
+  const core::PointCloud* cloud{nullptr};
+  /// For an unorganized cloud: the voxels the supervoxels were grown over and the supervoxel
+  /// of each voxel (supervoxel::Supervoxelizer::voxels() and voxel_label()). Border pairs are
+  /// then voxels that are near neighbours in view direction.
+  const geometry::VoxelGrid* voxels{nullptr};
+  const std::vector<int32_t>* voxel_supervoxel{nullptr};
+};
+
 /// Local area linkage and LCCP convexity (docs/method.md section 3): decides for every
 /// supervoxel adjacency whether it is kept, then takes connected components over kept edges
 /// as initial segments and merges components smaller than `min_segment_supervoxels` into
-/// their largest neighbouring segment.
+/// their largest neighbouring segment. Before the components, optional cues cut edges the
+/// convexity test keeps: crease evidence (graph only), depth jumps across the supervoxels'
+/// border as seen from the camera, and colour (LinkageParams).
 ///
 /// Output is deterministic and independent of the pool size. Thread-safety: Compute is not
 /// reentrant (reuses work buffers). Complexity: O(supervoxels + edges), plus O(edges * degree)
-/// with extended convexity.
+/// with extended convexity or crease evidence, plus O(pixels) for depth jumps on an organized
+/// cloud (one pass over the label image in bands of rows on the pool) or O(voxels log voxels)
+/// on an unorganized one (a k-d tree over the voxels' view directions), plus O(points) for
+/// colour. Nothing is allocated once the buffers have grown to the largest frame.
 class Linkage {
  public:
   /// `pool` may be null (single-threaded) and must outlive the Linkage.
@@ -48,15 +69,40 @@ class Linkage {
   /// types are used).
   /// @throws std::runtime_error when sizes disagree or the adjacency is malformed.
   void Compute(const supervoxel::Supervoxels& supervoxels, const PatchFeatures& features,
-               LinkageResult* result);
+               LinkageResult* result) {
+    Compute(supervoxels, features, LinkageCues{}, result);
+  }
+  /// The same, with the inputs of the border cues.
+  void Compute(const supervoxel::Supervoxels& supervoxels, const PatchFeatures& features,
+               const LinkageCues& cues, LinkageResult* result);
 
   const LinkageParams& params() const { return params_; }
 
  private:
+  // Depth-jump evidence per CSR slot of the lower supervoxel id (border_pairs_, jump_pairs_).
+  void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
+  void CountViewBorderPairs(const supervoxel::Supervoxels& sv, const geometry::VoxelGrid& voxels,
+                            const std::vector<int32_t>& voxel_supervoxel);
+  // Mean chromaticity per supervoxel (mean_chroma_, 3 per supervoxel).
+  void MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
+
   const LinkageParams params_;
   core::ThreadPool* const pool_;
   std::vector<uint32_t> reverse_slot_;
   std::vector<uint8_t> convex_raw_;
+  std::vector<uint8_t> edge_class_;  // per slot: ConnectionClass of the convexity test
+  std::vector<uint8_t> cue_cut_;     // per slot of the lower id: cut by a cue
+  std::vector<uint32_t> border_pairs_;
+  std::vector<uint32_t> jump_pairs_;
+  std::vector<std::vector<uint32_t>> band_events_;  // per band: slot << 1 | jumped
+  std::vector<std::vector<uint32_t>> band_pairs_;   // per band: border pixel pairs
+  std::vector<uint32_t> column_begin_;  // first voxel of each column of the grid, and the end
+  std::vector<float> view_dir_;         // 2 per voxel: x / z, y / z
+  geometry::NeighborIndex view_index_;
+  std::vector<std::vector<std::pair<uint32_t, float>>> chunk_found_;
+  std::vector<float> mean_chroma_;
+  std::vector<std::vector<uint32_t>> band_rgb_;  // per band: 4 per supervoxel (r, g, b, count)
+  std::vector<std::vector<std::pair<uint32_t, float>>> chunk_best_;  // per chunk: (sv, |dz|)
   std::vector<int32_t> parent_;
   std::vector<uint32_t> size_;
   std::vector<int32_t> new_id_;

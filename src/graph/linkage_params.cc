@@ -10,6 +10,13 @@ void LinkageParams::ValidateOrThrow() const {
   check.InRange("extended_convexity_k", extended_convexity_k, 1, 64);
   check.InRange("convexity_epsilon", convexity_epsilon, 0.f, 2.f);
   check.InRange("min_segment_supervoxels", min_segment_supervoxels, 1, 1000000);
+  check.InRange("sanity_min_angle_deg", sanity_min_angle_deg, 0.f, 180.f, "deg");
+  check.InRange("depth_jump_rel", depth_jump_rel, 0.f, 10.f);
+  check.InRange("depth_jump_fraction", depth_jump_fraction, 0.f, 1.f);
+  check.InRange("depth_jump_min_pairs", depth_jump_min_pairs, 1, 1000000);
+  check.InRange("crease_min_angle_deg", crease_min_angle_deg, 0.f, 180.f, "deg");
+  check.InRange("color_threshold", color_threshold, 0.f, 1000.f);
+  check.InRange("color_min_angle_deg", color_min_angle_deg, 0.f, 180.f, "deg");
 }
 
 }  // namespace clutterseg::graph

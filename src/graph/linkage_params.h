@@ -22,6 +22,32 @@ struct LinkageParams {
   bool cut_on_type_change{false};
   float convexity_epsilon{0.0f};   ///< slack on (n_i - n_j) . d > 0, dimensionless
   int min_segment_supervoxels{1};  ///< smaller components merge into a neighbour
+  /// The sanity criterion judges only connections whose normals differ by at least this,
+  /// degrees (0 = every connection, as LCCP). Below 20 degrees its threshold is under 9
+  /// degrees and mostly cuts flat, noisy connections inside objects (docs/method.md).
+  float sanity_min_angle_deg{20.0f};
+
+  /// Depth-jump cut: an otherwise kept edge is cut when at least depth_jump_min_pairs point
+  /// pairs lie across the two supervoxels' border as seen from the camera and at least
+  /// depth_jump_fraction of them differ in depth by more than depth_jump_rel times the nearer
+  /// depth (dimensionless; 0 = off). Border pairs are 4-neighbour pixels of an organized cloud,
+  /// and voxels that are nearest neighbours in view direction in an unorganized one
+  /// (docs/method.md). Separates objects that touch at one end and stand one behind the other.
+  float depth_jump_rel{0.02f};
+  float depth_jump_fraction{0.5f};  ///< share of border pairs that must jump, 0..1
+  int depth_jump_min_pairs{3};      ///< fewer border pairs are no evidence
+
+  /// Crease evidence: a concave connection kept only by the concavity tolerance, with a
+  /// normal angle of at least this (degrees), is cut when a common neighbour of its two
+  /// patches has a concave connection sharper than the tolerance to either of them: a mild
+  /// stretch of a crease between two objects (0 = off).
+  float crease_min_angle_deg{0.0f};
+
+  /// Colour cut (clouds with colour only): a concave connection whose normal angle is at
+  /// least color_min_angle_deg is cut when the patches' mean chromaticities (255 r / (r + g +
+  /// b), and g, b alike) differ by more than this Euclidean distance (0 = off).
+  float color_threshold{0.0f};
+  float color_min_angle_deg{20.0f};  ///< degrees; see color_threshold
 
   /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;

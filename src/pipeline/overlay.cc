@@ -292,6 +292,33 @@ void CloudToImage(const core::PointCloud& cloud, core::ColorImage* out) {
   }
 }
 
+void ProjectForDisplay(const core::PointCloud& cloud, const core::LabelImage& labels,
+                       const core::CameraIntrinsics& intrinsics, core::PointCloud* view,
+                       core::LabelImage* view_labels) {
+  const int w = intrinsics.width, h = intrinsics.height;
+  const size_t pixels = static_cast<size_t>(w) * static_cast<size_t>(h);
+  const core::Vec3f invalid{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+  view->width = w;
+  view->height = h;
+  view->xyz.assign(pixels, invalid);
+  view->label.clear();
+  const bool color = cloud.has_color();
+  view->rgba.assign(color ? pixels : 0, 0u);
+  view_labels->Reset(w, h, 0u);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    const core::Vec3f& p = cloud.xyz[i];
+    if (!core::IsValid(p) || !(p.z > 0.f)) continue;
+    const double u = std::round(intrinsics.fx * p.x / p.z + intrinsics.cx);
+    const double v = std::round(intrinsics.fy * p.y / p.z + intrinsics.cy);
+    if (!(u >= 0.0 && u < w && v >= 0.0 && v < h)) continue;
+    const size_t px = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
+    if (core::IsValid(view->xyz[px]) && view->xyz[px].z <= p.z) continue;
+    view->xyz[px] = p;
+    if (color) view->rgba[px] = cloud.rgba[i];
+    view_labels->data[px] = i < labels.data.size() ? labels.data[i] : 0u;
+  }
+}
+
 void DepthToImage(const core::DepthImage& depth, core::ColorImage* out) {
   out->Reset(depth.width, depth.height);
   uint16_t dmin = UINT16_MAX, dmax = 0;

@@ -16,6 +16,15 @@ core::Rgb8 LabelColor(uint32_t id);
 /// shaded grey (near = bright); invalid points black. Reuses `out`'s storage.
 void CloudToImage(const core::PointCloud& cloud, core::ColorImage* out);
 
+/// A picture of an unorganized cloud and its labels (one per point) as the camera with
+/// `intrinsics` would see them, for display only: each valid point projected to pixel
+/// (round(fx x / z + cx), round(fy y / z + cy)), the nearest point winning a pixel; pixels no
+/// point reaches are invalid. `view` gets the points (and colour) per pixel, `view_labels`
+/// their labels. Reuses the outputs' storage.
+void ProjectForDisplay(const core::PointCloud& cloud, const core::LabelImage& labels,
+                       const core::CameraIntrinsics& intrinsics, core::PointCloud* view,
+                       core::LabelImage* view_labels);
+
 /// An image of a depth image (millimetres, 0 = invalid) for display when a frame has no
 /// colour: shaded grey, near = bright, invalid pixels black. Reuses `out`'s storage.
 void DepthToImage(const core::DepthImage& depth, core::ColorImage* out);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <numeric>
 
 #include "clutterseg/core/scoped_timer.h"
@@ -9,7 +10,14 @@
 namespace clutterseg::pipeline {
 namespace {
 
-constexpr size_t kPixelGrain = 16384;
+constexpr size_t kPixelGrain = 32768;
+constexpr size_t kCandidateGrain = 1024;
+// Neighbours of a reclaim candidate in an unorganized cloud.
+constexpr size_t kReclaimNeighbors = 8;
+// Area of a compact flat patch from the two largest eigenvalues of its points' covariance:
+// area = k sqrt(l1 l2), k = 4 pi for a disc, 12 for a square, 12.47 for a regular hexagon
+// (supervoxels are compact cells between those).
+constexpr double kPatchAreaFactor = 12.4;
 
 }  // namespace
 
@@ -47,6 +55,63 @@ bool Refiner::KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const 
   return true;
 }
 
+void Refiner::SumGroups(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features) {
+  const size_t n = sv.size();
+  group_points_.assign(n, 0);
+  group_centroid_.assign(n, core::Vec3f{});
+  for (size_t i = 0; i < n; ++i) {
+    if (background_[i]) continue;
+    const int32_t g = Find(static_cast<int32_t>(i));
+    const float w = static_cast<float>(sv.num_points[i]);
+    group_points_[g] += sv.num_points[i];
+    group_centroid_[g].x += w * features.centroid[i].x;
+    group_centroid_[g].y += w * features.centroid[i].y;
+    group_centroid_[g].z += w * features.centroid[i].z;
+  }
+}
+
+void Refiner::MergeSmallGroups(const supervoxel::Supervoxels& sv) {
+  // Every adjacency of a small group to another foreground group, as a key (small group,
+  // other group); after sorting, each run is one pair and its length their adjacencies.
+  const size_t n = sv.size();
+  const uint64_t min_points = static_cast<uint64_t>(params_.min_object_points);
+  pair_keys_.clear();
+  for (size_t i = 0; i < n; ++i) {
+    if (background_[i]) continue;
+    const int32_t g = Find(static_cast<int32_t>(i));
+    if (group_points_[g] >= min_points) continue;
+    for (uint32_t s = sv.adjacency_offsets[i]; s < sv.adjacency_offsets[i + 1]; ++s) {
+      const uint32_t j = sv.adjacency[s];
+      if (background_[j]) continue;
+      const int32_t h = Find(static_cast<int32_t>(j));
+      if (h != g) pair_keys_.push_back(uint64_t{static_cast<uint32_t>(g)} << 32 | uint32_t(h));
+    }
+  }
+  std::sort(pair_keys_.begin(), pair_keys_.end());
+  // Best neighbour per small group: most shared adjacencies, then the larger group. The
+  // merges are decided on the groups before any of them, then applied.
+  merge_into_.clear();
+  uint32_t best_count = 0;
+  for (size_t a = 0; a < pair_keys_.size();) {
+    size_t b = a;
+    while (b < pair_keys_.size() && pair_keys_[b] == pair_keys_[a]) ++b;
+    const int32_t g = static_cast<int32_t>(pair_keys_[a] >> 32);
+    const int32_t h = static_cast<int32_t>(pair_keys_[a] & 0xffffffffu);
+    const uint32_t count = static_cast<uint32_t>(b - a);
+    if (merge_into_.empty() || merge_into_.back().first != g) {
+      merge_into_.emplace_back(g, h);
+      best_count = count;
+    } else if (count > best_count ||
+               (count == best_count &&
+                group_points_[h] > group_points_[merge_into_.back().second])) {
+      merge_into_.back().second = h;
+      best_count = count;
+    }
+    a = b;
+  }
+  for (const auto& [g, h] : merge_into_) Union(g, h);
+}
+
 Refiner::Refiner(const ObjectParams& params, core::ThreadPool* pool)
     : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
@@ -61,15 +126,26 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   std::vector<Plane>* const out_planes = &result->planes;
   const size_t n = sv.size();
   const size_t num_planes = planes.planes.size();
+  const size_t num_pixels = sv.pixel_label.size();
+  const bool organized = cloud.organized() && cloud.width == sv.width &&
+                         cloud.height == sv.height && cloud.xyz.size() == num_pixels;
 
   // Support planes are the large ones (table, floor, wall), measured by the metric area of
-  // the surface assigned to them: a pixel at depth z seen at incidence angle t covers
-  // z^2 / (fx fy cos t). Object faces are small even when they fill much of the image.
+  // the surface assigned to them. In an organized cloud a pixel at depth z seen at incidence
+  // angle t covers z^2 / (fx fy cos t); an unorganized cloud has no pixels (and may be
+  // merged from several views), so each patch counts the area of its points' spread. Object
+  // faces are small even when they fill much of the image.
   plane_area_.assign(num_planes, 0.0);
   const double pixel_area = 1.0 / (intrinsics.fx * intrinsics.fy);
   for (size_t i = 0; i < n; ++i) {
     const int32_t p = planes.patch_plane[i];
     if (p < 0) continue;
+    if (!organized) {
+      const core::Vec3f& l = sv.eigenvalues[i];
+      plane_area_[p] +=
+          kPatchAreaFactor * std::sqrt(std::max(0.0, double{l.x}) * std::max(0.0, double{l.y}));
+      continue;
+    }
     const core::Vec3f& c = features.centroid[i];
     const core::Vec3f& nrm = planes.planes[p].normal;
     const double r = std::sqrt(double(c.x) * c.x + double(c.y) * c.y + double(c.z) * c.z);
@@ -91,109 +167,350 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
     out.is_support = support_[p] != 0;
   }
 
+  // Supervoxels on a support plane are background, and their plane is the one their points'
+  // heights are measured from (support_plane_[s + 1]; zero for the others, so that reading it
+  // needs no branch).
   background_.assign(n, 0);
+  support_plane_.assign(n + 1, PlaneEq{});
   for (size_t i = 0; i < n; ++i) {
     const int32_t p = planes.patch_plane[i];
-    if (p >= 0 && support_[p]) background_[i] = 1;
+    if (p < 0 || !support_[p]) continue;
+    background_[i] = 1;
+    const optimize::PlaneModel& pm = planes.planes[p];
+    support_plane_[i + 1] = PlaneEq{pm.normal.x, pm.normal.y, pm.normal.z, pm.d};
+  }
+
+  // One pass over the points, in bands on the pool, run by run of points of one supervoxel:
+  // the first point of every supervoxel in each band (object ids follow the first points),
+  // and for support supervoxels how many of their points lie above the support.
+  const bool release = params.support_release_fraction > 0.f;
+  const bool heights = release || params.support_reclaim_passes > 0;
+  const float above = params.above_support_distance_m;
+  const size_t num_bands = core::ThreadPool::NumChunks(num_pixels, kPixelGrain);
+  if (bands_.size() < num_bands) bands_.resize(num_bands);
+  core::ForChunks(pool, num_pixels, kPixelGrain, [&](size_t b, size_t e) {
+    Band& band = bands_[b / kPixelGrain];
+    band.first.clear();
+    band.seen.assign(n, 0);
+    band.above.assign(heights ? n : 0, 0);
+    const int32_t* const pixel = sv.pixel_label.data();
+    const core::Vec3f* const xyz = cloud.xyz.data();
+    const uint8_t* const is_support = background_.data();
+    uint8_t* const seen = band.seen.data();
+    uint32_t* const above_count = band.above.data();
+    for (size_t px = b; px < e;) {
+      const int32_t s = pixel[px];
+      size_t end = px + 1;
+      while (end < e && pixel[end] == s) ++end;
+      if (s >= 0) {
+        if (!seen[s]) {
+          seen[s] = 1;
+          band.first.emplace_back(static_cast<uint32_t>(s), static_cast<uint32_t>(px));
+        }
+        if (heights && is_support[s]) {
+          const PlaneEq pl = support_plane_[s + 1];
+          uint32_t count = 0;
+          for (size_t k = px; k < end; ++k) {
+            const core::Vec3f q = xyz[k];
+            count += pl.nx * q.x + pl.ny * q.y + pl.nz * q.z + pl.d > above ? 1u : 0u;
+          }
+          above_count[s] += count;
+        }
+      }
+      px = end;
+    }
+  });
+  sv_first_.assign(n, UINT32_MAX);
+  for (size_t k = 0; k < num_bands; ++k) {
+    for (const auto& [s, px] : bands_[k].first) {
+      if (sv_first_[s] == UINT32_MAX) sv_first_[s] = px;
+    }
+  }
+  above_count_.assign(n, 0);
+  if (heights) {
+    for (size_t k = 0; k < num_bands; ++k) {
+      for (size_t i = 0; i < n; ++i) above_count_[i] += bands_[k].above[i];
+    }
+  }
+
+  // Release: support supervoxels that stand mostly above their plane are foreground.
+  released_.assign(n, 0);
+  if (release) {
+    for (size_t i = 0; i < n; ++i) {
+      if (background_[i] && static_cast<double>(above_count_[i]) >=
+                                double{params.support_release_fraction} * sv.num_points[i]) {
+        background_[i] = 0;
+        released_[i] = 1;
+      }
+    }
   }
 
   // Group foreground supervoxels: same initial segment and adjacent, or pieces of the same
-  // non-support plane that touch.
+  // non-support plane that touch with patch normals within plane_merge_max_pair_angle_deg.
   parent_.resize(n);
   std::iota(parent_.begin(), parent_.end(), 0);
+  const float min_pair_cos =
+      params.plane_merge_max_pair_angle_deg >= 180.f
+          ? -2.f
+          : static_cast<float>(
+                std::cos(double{params.plane_merge_max_pair_angle_deg} * std::numbers::pi / 180.0));
   for (size_t i = 0; i < n; ++i) {
     if (background_[i]) continue;
+    const core::Vec3f& ni = features.normal[i];
     for (uint32_t s = sv.adjacency_offsets[i]; s < sv.adjacency_offsets[i + 1]; ++s) {
       const uint32_t j = sv.adjacency[s];
       if (j <= i || background_[j]) continue;
       const bool same_segment = link.segment[i] == link.segment[j];
       const int32_t pi = planes.patch_plane[i];
+      const core::Vec3f& nj = features.normal[j];
       const bool same_plane = pi >= 0 && pi == planes.patch_plane[j] &&
                               features.type[i] == graph::PatchType::kPlanar &&
-                              features.type[j] == graph::PatchType::kPlanar;
+                              features.type[j] == graph::PatchType::kPlanar &&
+                              ni.x * nj.x + ni.y * nj.y + ni.z * nj.z >= min_pair_cos;
       if (same_segment || same_plane) Union(static_cast<int32_t>(i), static_cast<int32_t>(j));
     }
   }
 
-  group_points_.assign(n, 0);
-  group_centroid_.assign(n, core::Vec3f{});
+  // A group of released supervoxels alone is a piece of the support slightly off its fitted
+  // plane unless it stands clearly above it: background again.
+  if (release && params.support_release_min_height_m > 0.f) {
+    group_unreleased_.assign(n, 0);
+    group_height_.assign(n, 0.0);
+    group_height_points_.assign(n, 0);
+    for (size_t i = 0; i < n; ++i) {
+      if (background_[i]) continue;
+      const int32_t g = Find(static_cast<int32_t>(i));
+      if (!released_[i]) {
+        group_unreleased_[g] = 1;
+        continue;
+      }
+      // The heights' sum from the points' mean (the supervoxel's centroid).
+      const PlaneEq& pl = support_plane_[i + 1];
+      const core::Vec3f& c = sv.centroid[i];
+      group_height_[g] += static_cast<double>(sv.num_points[i]) *
+                          (double{pl.nx} * c.x + double{pl.ny} * c.y + double{pl.nz} * c.z + pl.d);
+      group_height_points_[g] += sv.num_points[i];
+    }
+    for (size_t i = 0; i < n; ++i) {
+      if (!released_[i]) continue;
+      const int32_t g = Find(static_cast<int32_t>(i));
+      if (group_unreleased_[g]) continue;
+      if (group_height_[g] < double{params.support_release_min_height_m} *
+                                 static_cast<double>(group_height_points_[g])) {
+        background_[i] = 1;
+      }
+    }
+  }
+
+  SumGroups(sv, features);
+  if (params.merge_small_groups) {
+    MergeSmallGroups(sv);
+    SumGroups(sv, features);
+  }
+
+  // Label groups in row-major order of their first point (the first of their supervoxels'
+  // first points); drop small ones. The tables below are indexed by supervoxel + 1, so that
+  // an invalid point (-1) needs no branch.
+  group_first_.assign(n, UINT32_MAX);
   for (size_t i = 0; i < n; ++i) {
     if (background_[i]) continue;
     const int32_t g = Find(static_cast<int32_t>(i));
-    const float w = static_cast<float>(sv.num_points[i]);
-    group_points_[g] += sv.num_points[i];
-    group_centroid_[g].x += w * features.centroid[i].x;
-    group_centroid_[g].y += w * features.centroid[i].y;
-    group_centroid_[g].z += w * features.centroid[i].z;
+    group_first_[g] = std::min(group_first_[g], sv_first_[i]);
   }
-
-  // Label groups in row-major order of their first pixel; drop small ones. Each band of
-  // pixels lists the groups in the order they first appear in it; the bands' lists, in band
-  // order, give every group's first appearance in the image. Pixels then take their
-  // supervoxel's label from a table. Both tables are indexed by supervoxel + 1, so that an
-  // invalid pixel (-1) needs no branch: group + 1 (0 for background and invalid pixels), and
-  // the object label.
-  sv_group_.resize(n + 1);
-  sv_group_[0] = 0;
-  for (size_t i = 0; i < n; ++i) {
-    sv_group_[i + 1] = background_[i] ? 0 : Find(static_cast<int32_t>(i)) + 1;
+  group_order_.clear();
+  for (size_t g = 0; g < n; ++g) {
+    if (group_first_[g] != UINT32_MAX) group_order_.emplace_back(group_first_[g], g);
   }
-  const size_t num_pixels = sv.pixel_label.size();
-  const size_t num_bands = core::ThreadPool::NumChunks(num_pixels, kPixelGrain);
-  if (band_groups_.size() < num_bands) band_groups_.resize(num_bands);
-  if (band_seen_.size() < num_bands) band_seen_.resize(num_bands);
-  core::ForChunks(pool, num_pixels, kPixelGrain, [&](size_t b, size_t e) {
-    std::vector<int32_t>& groups = band_groups_[b / kPixelGrain];
-    std::vector<uint8_t>& seen = band_seen_[b / kPixelGrain];
-    groups.clear();
-    seen.assign(n + 1, 0);
-    seen[0] = 1;  // background and invalid pixels
-    const int32_t* pixel = sv.pixel_label.data();
-    const int32_t* group = sv_group_.data();
-    for (size_t px = b; px < e; ++px) {
-      const int32_t g = group[pixel[px] + 1];
-      if (seen[g]) continue;
-      seen[g] = 1;
-      groups.push_back(g - 1);
-    }
-  });
-  group_label_.assign(n, -1);
+  std::sort(group_order_.begin(), group_order_.end());
+  group_label_.assign(n, 0);
   uint32_t next = 0;
-  for (size_t k = 0; k < num_bands; ++k) {
-    for (const int32_t g : band_groups_[k]) {
-      if (group_label_[g] < 0) {
-        group_label_[g] = KeepGroup(planes, g) ? static_cast<int32_t>(++next) : 0;
-      }
-    }
+  for (const auto& [first, g] : group_order_) {
+    group_label_[g] = KeepGroup(planes, static_cast<int32_t>(g)) ? ++next : 0u;
   }
   sv_label_.resize(n + 1);
   sv_label_[0] = 0;
   for (size_t i = 0; i < n; ++i) {
-    const int32_t g = sv_group_[i + 1];
-    sv_label_[i + 1] = g == 0 ? 0u : static_cast<uint32_t>(group_label_[g - 1]);
+    sv_label_[i + 1] = background_[i] ? 0u : group_label_[Find(static_cast<int32_t>(i))];
   }
 
-  // Supervoxels straddle the contact between an object and its support: points of an object
-  // that lie on a support plane go back to the background.
+  // Reclaim candidates: points above the support in supervoxels that stayed support (not
+  // released ones sent back), next to an object. In an unorganized cloud the objects'
+  // supervoxels adjacent to them are anchors: their points are the candidates' neighbours.
+  const bool reclaim = params.support_reclaim_passes > 0 && next > 0;
+  reclaim_from_.assign(n + 1, 0);
+  anchor_.assign(n + 1, 0);
+  if (reclaim) {
+    for (size_t i = 0; i < n; ++i) {
+      if (!background_[i] || released_[i] || above_count_[i] == 0) continue;
+      for (uint32_t s = sv.adjacency_offsets[i]; s < sv.adjacency_offsets[i + 1]; ++s) {
+        const uint32_t j = sv.adjacency[s];
+        if (sv_label_[j + 1] == 0) continue;
+        reclaim_from_[i + 1] = 1;
+        anchor_[j + 1] = organized ? 0 : 1;
+      }
+    }
+  }
+
+  // Second pass: each point takes its supervoxel's label; points of an object that lie on a
+  // support plane go back to the background (support_snap_distance_m); reclaim candidates
+  // and anchors are listed per band.
   const float snap = params.support_snap_distance_m;
   core::ForChunks(pool, num_pixels, kPixelGrain, [&](size_t b, size_t e) {
+    Band& band = bands_[b / kPixelGrain];
+    band.candidates.clear();
+    band.anchors.clear();
     const int32_t* pixel = sv.pixel_label.data();
     const uint32_t* label = sv_label_.data();
     uint32_t* out = labels->data.data();
     for (size_t px = b; px < e; ++px) out[px] = label[pixel[px] + 1];
-    if (!(snap > 0.f)) return;
-    for (size_t p = 0; p < num_planes; ++p) {
-      if (!support_[p]) continue;
-      const core::Vec3f nrm = planes.planes[p].normal;
-      const float d = planes.planes[p].d;
-      for (size_t px = b; px < e; ++px) {
-        if (labels->data[px] == 0) continue;
-        const core::Vec3f& q = cloud.xyz[px];
-        if (std::abs(nrm.x * q.x + nrm.y * q.y + nrm.z * q.z + d) < snap) labels->data[px] = 0;
+    if (snap > 0.f) {
+      for (size_t p = 0; p < num_planes; ++p) {
+        if (!support_[p]) continue;
+        const core::Vec3f nrm = planes.planes[p].normal;
+        const float d = planes.planes[p].d;
+        for (size_t px = b; px < e; ++px) {
+          if (out[px] == 0) continue;
+          const core::Vec3f& q = cloud.xyz[px];
+          if (std::abs(nrm.x * q.x + nrm.y * q.y + nrm.z * q.z + d) < snap) out[px] = 0;
+        }
+      }
+    }
+    if (!reclaim) return;
+    for (size_t px = b; px < e;) {
+      const int32_t s = pixel[px];
+      size_t end = px + 1;
+      while (end < e && pixel[end] == s) ++end;
+      if (anchor_[s + 1]) {
+        for (size_t k = px; k < end; ++k) {
+          if (out[k] != 0) band.anchors.push_back(static_cast<uint32_t>(k));
+        }
+      } else if (reclaim_from_[s + 1]) {
+        const PlaneEq pl = support_plane_[s + 1];
+        for (size_t k = px; k < end; ++k) {
+          const core::Vec3f q = cloud.xyz[k];
+          if (pl.nx * q.x + pl.ny * q.y + pl.nz * q.z + pl.d > above) {
+            band.candidates.push_back(static_cast<uint32_t>(k));
+          }
+        }
+      }
+      px = end;
+    }
+  });
+  if (reclaim) {
+    candidates_.clear();
+    anchors_.clear();
+    for (size_t k = 0; k < num_bands; ++k) {
+      candidates_.insert(candidates_.end(), bands_[k].candidates.begin(),
+                         bands_[k].candidates.end());
+      anchors_.insert(anchors_.end(), bands_[k].anchors.begin(), bands_[k].anchors.end());
+    }
+    if (organized) {
+      ReclaimOrganized(cloud, labels);
+    } else {
+      ReclaimUnorganized(cloud, labels);
+    }
+  }
+  result->objects.assign(next, Object{});
+}
+
+void Refiner::ReclaimOrganized(const core::PointCloud& cloud, core::LabelImage* labels) {
+  // Each pass, every candidate next to a labelled pixel (left, right, up, down) takes the
+  // label of the one nearest in depth, unless the step exceeds the limit; the labels taken
+  // in a pass are written after it, so the order of the candidates does not matter.
+  const size_t w = static_cast<size_t>(labels->width), h = static_cast<size_t>(labels->height);
+  const float step = params_.support_reclaim_max_step_rel;
+  uint32_t* out = labels->data.data();
+  const core::Vec3f* xyz = cloud.xyz.data();
+  for (int pass = 0; pass < params_.support_reclaim_passes && !candidates_.empty(); ++pass) {
+    takes_.clear();
+    size_t kept = 0;
+    for (const uint32_t px : candidates_) {
+      const size_t u = px % w, v = px / w;
+      const float z = xyz[px].z;
+      const float limit = step * z;
+      uint32_t label = 0;
+      float best = 0.f;
+      auto consider = [&](size_t o) {
+        const uint32_t l = out[o];
+        if (l == 0) return;
+        const float dz = std::abs(xyz[o].z - z);
+        if (!(dz <= limit)) return;
+        if (label == 0 || dz < best) {
+          label = l;
+          best = dz;
+        }
+      };
+      if (u > 0) consider(px - 1);
+      if (u + 1 < w) consider(px + 1);
+      if (v > 0) consider(px - w);
+      if (v + 1 < h) consider(px + w);
+      if (label != 0) {
+        takes_.emplace_back(px, label);
+      } else {
+        candidates_[kept++] = px;
+      }
+    }
+    if (takes_.empty()) break;
+    candidates_.resize(kept);
+    for (const auto& [px, label] : takes_) out[px] = label;
+  }
+}
+
+void Refiner::ReclaimUnorganized(const core::PointCloud& cloud, core::LabelImage* labels) {
+  const size_t nc = candidates_.size();
+  if (nc == 0 || anchors_.empty()) return;
+  // The candidates and anchors in one 3-d index (candidates first); each candidate's nearest
+  // neighbours within the step limit, nearest first, found on the pool.
+  const size_t total = nc + anchors_.size();
+  reclaim_xyz_.resize(3 * total);
+  for (size_t k = 0; k < total; ++k) {
+    const core::Vec3f& p = cloud.xyz[k < nc ? candidates_[k] : anchors_[k - nc]];
+    reclaim_xyz_[3 * k] = p.x;
+    reclaim_xyz_[3 * k + 1] = p.y;
+    reclaim_xyz_[3 * k + 2] = p.z;
+  }
+  reclaim_index_.Build(reclaim_xyz_.data(), total, 3);
+  constexpr size_t kStride = kReclaimNeighbors + 1;  // the query point finds itself too
+  neighbors_.assign(kStride * nc, UINT32_MAX);
+  const float step = params_.support_reclaim_max_step_rel;
+  core::ForChunks(pool_, nc, kCandidateGrain, [&](size_t b, size_t e) {
+    uint32_t index[kStride];
+    float dist2[kStride];
+    for (size_t c = b; c < e; ++c) {
+      const float* q = &reclaim_xyz_[3 * c];
+      const size_t found = reclaim_index_.Nearest(q, kStride, index, dist2);
+      const float limit = step * q[2];
+      uint32_t* dst = &neighbors_[kStride * c];
+      for (size_t k = 0; k < found; ++k) {
+        if (index[k] == c || !(dist2[k] <= limit * limit)) continue;
+        *dst++ = index[k];
       }
     }
   });
-  result->objects.assign(next, Object{});
+  // Labels of the indexed points: candidates start unlabelled. Each pass, an unlabelled
+  // candidate takes the label of its nearest labelled neighbour; the labels taken in a pass
+  // are written after it.
+  uint32_t* out = labels->data.data();
+  reclaim_label_.resize(total);
+  for (size_t k = 0; k < total; ++k) reclaim_label_[k] = k < nc ? 0u : out[anchors_[k - nc]];
+  for (int pass = 0; pass < params_.support_reclaim_passes; ++pass) {
+    takes_.clear();
+    for (size_t c = 0; c < nc; ++c) {
+      if (reclaim_label_[c] != 0) continue;
+      const uint32_t* nb = &neighbors_[kStride * c];
+      for (size_t k = 0; k < kStride && nb[k] != UINT32_MAX; ++k) {
+        const uint32_t l = reclaim_label_[nb[k]];
+        if (l == 0) continue;
+        takes_.emplace_back(static_cast<uint32_t>(c), l);
+        break;
+      }
+    }
+    if (takes_.empty()) break;
+    for (const auto& [c, l] : takes_) reclaim_label_[c] = l;
+  }
+  for (size_t c = 0; c < nc; ++c) {
+    if (reclaim_label_[c] != 0) out[candidates_[c]] = reclaim_label_[c];
+  }
 }
 
 }  // namespace clutterseg::pipeline

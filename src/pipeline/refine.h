@@ -6,6 +6,7 @@
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/geometry/neighbor_index.h"
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/optimize/planes.h"
@@ -15,11 +16,19 @@
 
 namespace clutterseg::pipeline {
 
-/// Refinement (docs/method.md section 6): support planes become background, the remaining
-/// supervoxels are grouped into objects by the initial segments (restricted to foreground and
-/// re-split where removing the background disconnected them), pieces of one non-support plane
-/// that touch are merged, and groups smaller than min_object_points are dropped. Object ids
-/// are assigned in row-major order of each object's first pixel, so output is deterministic.
+/// Refinement (docs/method.md section 6): support planes become background, except support
+/// supervoxels that stand mostly above their plane (released; a group of released ones alone
+/// must stand clearly above it); the remaining supervoxels are grouped into objects by the
+/// initial segments (restricted to foreground and re-split where removing the background
+/// disconnected them) and by pieces of one non-support plane that touch with similar
+/// normals; groups smaller than min_object_points join their most connected neighbour (or
+/// are dropped); points of support supervoxels above the support next to an object take its
+/// label (reclaim). Object ids are assigned in the order of each object's first point (row-
+/// major in an organized cloud), so output is deterministic.
+///
+/// Organized and unorganized clouds take the same steps; where an organized cloud's pixel grid
+/// is used (the support area per pixel, the reclaim's 4-neighbours), an unorganized cloud uses
+/// the patches' spread (area) and the nearest points (geometry::NeighborIndex).
 ///
 /// Thread-safety: Compute is not reentrant (reuses work buffers); distinct instances are
 /// independent.
@@ -31,31 +40,68 @@ class Refiner {
 
   /// Writes result->labels (already sized to the frame), result->planes, num_objects
   /// default entries in result->objects (labels 1..num_objects; ObjectExtractor fills their
-  /// statistics) and its time in result->times[Stage::kRefine]. The pixel passes run on the
-  /// pool; the result does not depend on it.
+  /// statistics) and its time in result->times[Stage::kRefine]. `intrinsics` are read only
+  /// for an organized `cloud`. The passes over the points (two, in bands) and the reclaim's
+  /// neighbour search run on the pool; the result does not depend on it. Nothing is allocated
+  /// once the buffers have grown to the largest frame.
   void Compute(const core::CameraIntrinsics& intrinsics, const core::PointCloud& cloud,
                const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
                const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
                SegmentationResult* result);
 
  private:
+  // A plane n . x + d = 0 as four floats.
+  struct PlaneEq {
+    float nx{0.f}, ny{0.f}, nz{0.f}, d{0.f};
+  };
+  // Per band of points.
+  struct Band {
+    std::vector<std::pair<uint32_t, uint32_t>> first;  // (supervoxel, its first point)
+    std::vector<uint8_t> seen;
+    std::vector<uint32_t> above;  // points above the support, per supervoxel
+    std::vector<uint32_t> candidates;
+    std::vector<uint32_t> anchors;
+  };
+
   int32_t Find(int32_t x);
   bool KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const;
   void Union(int32_t a, int32_t b);
+  void SumGroups(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features);
+  void MergeSmallGroups(const supervoxel::Supervoxels& sv);
+  void ReclaimOrganized(const core::PointCloud& cloud, core::LabelImage* labels);
+  void ReclaimUnorganized(const core::PointCloud& cloud, core::LabelImage* labels);
 
   const ObjectParams params_;
   core::ThreadPool* const pool_;
   std::vector<int32_t> parent_;
   std::vector<uint8_t> background_;
+  std::vector<uint8_t> released_;
   std::vector<uint8_t> support_;
   std::vector<double> plane_area_;
+  std::vector<PlaneEq> support_plane_;  // [s + 1]
+  std::vector<Band> bands_;
+  std::vector<uint32_t> sv_first_;
+  std::vector<uint32_t> above_count_;
+  std::vector<uint8_t> group_unreleased_;
+  std::vector<double> group_height_;
+  std::vector<uint64_t> group_height_points_;
   std::vector<uint64_t> group_points_;
   std::vector<core::Vec3f> group_centroid_;
-  std::vector<int32_t> group_label_;
-  std::vector<int32_t> sv_group_;   // [s + 1]: root of supervoxel s's group + 1, 0 = background
-  std::vector<uint32_t> sv_label_;  // [s + 1]: object label of supervoxel s, 0 = none
-  std::vector<std::vector<int32_t>> band_groups_;  // groups in order of first pixel, per band
-  std::vector<std::vector<uint8_t>> band_seen_;
+  std::vector<uint64_t> pair_keys_;
+  std::vector<std::pair<int32_t, int32_t>> merge_into_;
+  std::vector<uint32_t> group_first_;
+  std::vector<std::pair<uint32_t, size_t>> group_order_;
+  std::vector<uint32_t> group_label_;
+  std::vector<uint32_t> sv_label_;     // [s + 1]: object label of supervoxel s, 0 = none
+  std::vector<uint8_t> reclaim_from_;  // [s + 1]
+  std::vector<uint8_t> anchor_;        // [s + 1]
+  std::vector<uint32_t> candidates_;
+  std::vector<uint32_t> anchors_;
+  std::vector<std::pair<uint32_t, uint32_t>> takes_;
+  std::vector<float> reclaim_xyz_;
+  std::vector<uint32_t> neighbors_;
+  std::vector<uint32_t> reclaim_label_;
+  geometry::NeighborIndex reclaim_index_;
 };
 
 }  // namespace clutterseg::pipeline

@@ -107,7 +107,15 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   m.features.Compute(work, m.sv, &m.patch);
   times[Stage::kFeatures] = m.patch.time_ms;
 
-  m.linkage.Compute(m.sv, m.patch, &m.link);
+  // The border cues read the input's depths and colour (the working cloud's points are the
+  // input's wherever a supervoxel is), and for an unorganized cloud the voxels.
+  graph::LinkageCues cues;
+  cues.cloud = &cloud;
+  if (!work.organized()) {
+    cues.voxels = &m.supervoxelizer.voxels();
+    cues.voxel_supervoxel = &m.supervoxelizer.voxel_label();
+  }
+  m.linkage.Compute(m.sv, m.patch, cues, &m.link);
   times[Stage::kLinkage] = m.link.time_ms;
 
   m.plane_labeler.Compute(m.sv, m.patch, &m.planes);

@@ -10,6 +10,13 @@ void ObjectParams::ValidateOrThrow() const {
   check.InRange("support_min_area_m2", support_min_area_m2, 1e-6f, 1e4f, "m^2");
   check.InRange("support_snap_distance_m", support_snap_distance_m, 0.f, 1.f, "m");
   check.InRange("below_support_margin_m", below_support_margin_m, 0.f, 10.f, "m");
+  check.InRange("plane_merge_max_pair_angle_deg", plane_merge_max_pair_angle_deg, 0.f, 180.f,
+                "deg");
+  check.InRange("above_support_distance_m", above_support_distance_m, 1e-6f, 1.f, "m");
+  check.InRange("support_release_fraction", support_release_fraction, 0.f, 1.f);
+  check.InRange("support_release_min_height_m", support_release_min_height_m, 0.f, 10.f, "m");
+  check.InRange("support_reclaim_passes", support_reclaim_passes, 0, 1000);
+  check.InRange("support_reclaim_max_step_rel", support_reclaim_max_step_rel, 0.f, 10.f);
 }
 
 void SegmenterParams::ValidateOrThrow() const {

@@ -23,6 +23,34 @@ struct ObjectParams {
   /// Segments whose centroid lies this far below a support plane (table edges and legs,
   /// things under the table) are background, metres (0 = keep them).
   float below_support_margin_m{0.005f};
+  /// Pieces of one non-support plane that touch merge only when their two patch normals lie
+  /// within this angle of each other, degrees (180 = whenever both are planar, the paper's
+  /// rule). Alpha-expansion gives a small face next to a box's top the top's plane; without
+  /// the check, that face's box and the next one become one object (docs/method.md).
+  float plane_merge_max_pair_angle_deg{60.0f};
+  /// A point more than this above its support plane (signed distance along the plane's
+  /// normal) counts as above the support for the release and reclaim below, metres.
+  float above_support_distance_m{0.004f};
+  /// A support-plane supervoxel with at least this share of its points above the support is
+  /// released: it is foreground and grouped like the others (0 = off). Catches the lowest
+  /// part of an object that alpha-expansion put on the table's plane.
+  float support_release_fraction{0.5f};
+  /// A group made only of released supervoxels stays an object only when its points stand
+  /// this high above the support on average, metres; otherwise it is background again (table
+  /// pieces slightly off the fitted plane). 0 = every such group stays.
+  float support_release_min_height_m{0.008f};
+  /// Points of the remaining support supervoxels that lie above the support take the label of
+  /// an adjacent object point, spreading up to this many neighbours into the support (0 =
+  /// off): the object side of supervoxels straddling an object's bottom and the table. No
+  /// label spreads across a depth step larger than support_reclaim_max_step_rel times the
+  /// depth. Neighbours are the 4 pixels of an organized cloud, the 8 nearest points of an
+  /// unorganized one.
+  int support_reclaim_passes{8};
+  float support_reclaim_max_step_rel{0.02f};  ///< dimensionless; see support_reclaim_passes
+  /// A group smaller than min_object_points joins the adjacent foreground group it shares the
+  /// most supervoxel adjacencies with (ties: the larger group) instead of being dropped; an
+  /// isolated small group is still dropped.
+  bool merge_small_groups{true};
 
   /// @throws std::invalid_argument naming the key (`segmenter.objects.<field>`) and value.
   void ValidateOrThrow() const;

@@ -17,7 +17,9 @@ struct SupervoxelParams {
   float seed_resolution_m{0.03f};  ///< spacing of supervoxel seeds, metres
   float color_importance{0.0f};    ///< wc; 0 = geometry only (the paper)
   float spatial_importance{1.0f};  ///< ws
-  float normal_importance{4.0f};   ///< wn
+  /// wn (VCCS and PCL's example: 4; 6 measured better on mOSD and the synthetic rooms,
+  /// docs/results.md).
+  float normal_importance{6.0f};
   /// Re-centre and regrow this many times (VCCS and PCL: several). One pass keeps supervoxels
   /// from straddling creases between stacked objects (tests/pipeline) at about 10% less
   /// supervoxelizer time than two; quality on mOSD is the same for 0, 1 and 2.

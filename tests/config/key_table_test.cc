@@ -149,6 +149,43 @@ TEST(SegmenterKeys, LoadTheSegmenterSectionOfADaemonFile) {
   EXPECT_NE(e.find("keys of 'segmenter.supervoxel': voxel_resolution_m"), std::string::npos) << e;
 }
 
+TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
+  // The measured additions of docs/method.md are on by default and off in config/paper.yaml,
+  // which keeps reproducing the paper.
+  const pipeline::SegmenterParams defaults;
+  EXPECT_EQ(defaults.supervoxel.normal_importance, 6.f);
+  EXPECT_EQ(defaults.linkage.sanity_min_angle_deg, 20.f);
+  EXPECT_GT(defaults.linkage.depth_jump_rel, 0.f);
+  EXPECT_LT(defaults.objects.plane_merge_max_pair_angle_deg, 180.f);
+  EXPECT_GT(defaults.objects.support_release_fraction, 0.f);
+  EXPECT_GT(defaults.objects.support_reclaim_passes, 0);
+  EXPECT_TRUE(defaults.objects.merge_small_groups);
+  pipeline::SegmenterParams p;
+  LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/paper.yaml", &p);
+  EXPECT_EQ(p.supervoxel.normal_importance, 4.f);
+  EXPECT_EQ(p.linkage.sanity_min_angle_deg, 0.f);
+  EXPECT_EQ(p.linkage.depth_jump_rel, 0.f);
+  EXPECT_EQ(p.linkage.crease_min_angle_deg, 0.f);
+  EXPECT_EQ(p.linkage.color_threshold, 0.f);
+  EXPECT_EQ(p.objects.plane_merge_max_pair_angle_deg, 180.f);
+  EXPECT_EQ(p.objects.support_release_fraction, 0.f);
+  EXPECT_EQ(p.objects.support_reclaim_passes, 0);
+  EXPECT_FALSE(p.objects.merge_small_groups);
+  // config/previous-defaults.yaml: the same additions off, everything else the defaults.
+  pipeline::SegmenterParams q;
+  LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/previous-defaults.yaml", &q);
+  EXPECT_EQ(q.supervoxel.normal_importance, 4.f);
+  EXPECT_EQ(q.linkage.sanity_min_angle_deg, 0.f);
+  EXPECT_EQ(q.linkage.depth_jump_rel, 0.f);
+  EXPECT_EQ(q.objects.plane_merge_max_pair_angle_deg, 180.f);
+  EXPECT_EQ(q.objects.support_release_fraction, 0.f);
+  EXPECT_EQ(q.objects.support_reclaim_passes, 0);
+  EXPECT_FALSE(q.objects.merge_small_groups);
+  EXPECT_EQ(q.linkage.concavity_tolerance_deg, defaults.linkage.concavity_tolerance_deg);
+  EXPECT_EQ(q.supervoxel.growth_regions, defaults.supervoxel.growth_regions);
+  EXPECT_EQ(q.planes.inlier_distance_m, defaults.planes.inlier_distance_m);
+}
+
 TEST(SegmenterKeys, ValidationMessagesNameTheYamlKey) {
   pipeline::SegmenterParams p;
   p.supervoxel.grid.voxel_resolution_m = 2.f;

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <stdexcept>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/geometry/voxel_grid.h"
 #include "clutterseg/graph/patch_features.h"
 #include "tests/graph/synthetic_tiles.h"
 
@@ -90,6 +93,7 @@ TEST(IsConvexConnection, SanityCriterionCutsNearParallelStep) {
   const core::Vec3f nj{0, -std::cos(a), -std::sin(a)};
   const core::Vec3f ci{0.f, 0.3f, 1.f}, cj{0.05f, 0.305f, 1.f};
   LinkageParams p;
+  p.sanity_min_angle_deg = 0.f;  // LCCP: every connection is judged
   p.use_sanity_criterion = false;
   EXPECT_TRUE(IsConvexConnection(ci, ni, cj, nj, p));
   p.use_sanity_criterion = true;
@@ -97,6 +101,24 @@ TEST(IsConvexConnection, SanityCriterionCutsNearParallelStep) {
   EXPECT_FALSE(IsConvexConnection(cj, nj, ci, ni, p));
   // The same normals with the connection across the crease line pass the sanity check.
   EXPECT_TRUE(IsConvexConnection({0, 0.2f, 1.02f}, kUp, {0, 0.22f, 1.0f}, kFacing, p));
+}
+
+TEST(IsConvexConnection, SanityCriterionOnlyFromItsMinimumAngle) {
+  // Side by side along the line where the two patch planes meet, normals 15 deg apart: LCCP's
+  // sanity criterion cuts it (its threshold at 15 deg is 4.6 deg; the connection runs 1.1 deg
+  // off the line); from 20 deg on only, it stays.
+  const float a = 15.f * 3.14159265f / 180.f;
+  const core::Vec3f nj{0, -std::cos(a), -std::sin(a)};
+  const core::Vec3f ci{0.f, 0.3f, 1.f}, cj{0.05f, 0.301f, 1.f};
+  LinkageParams p;
+  p.sanity_min_angle_deg = 0.f;
+  EXPECT_FALSE(IsConvexConnection(ci, kUp, cj, nj, p));
+  p.sanity_min_angle_deg = 20.f;
+  EXPECT_TRUE(IsConvexConnection(ci, kUp, cj, nj, p));
+  EXPECT_TRUE(IsConvexConnection(cj, nj, ci, kUp, p));
+  // At 25 deg the criterion judges it again (and cuts: the line is 1.1 deg away).
+  const float b = 25.f * 3.14159265f / 180.f;
+  EXPECT_FALSE(IsConvexConnection(ci, kUp, cj, {0, -std::cos(b), -std::sin(b)}, p));
 }
 
 TEST(Linkage, BoxFacesKeptTableCreaseCut) {
@@ -301,18 +323,191 @@ TEST(Linkage, SceneSeparatesBoxesFromTable) {
   EXPECT_NE(dominant[0], dominant[1]);
 }
 
+// Two flat supervoxels facing the camera side by side (left: x < 0, right: x >= 0), the right
+// one `step_m` behind the left except along the top `touch_rows` rows of an organized
+// `width` x `height` image, where both lie at 1 m: the right one stands behind and touches the
+// left at one end, as an object standing behind another. Coplanar normals make the
+// connection convex. `organized` false: the same points, unorganized, in a shuffled order.
+struct StepScene {
+  core::PointCloud cloud;
+  supervoxel::Supervoxels sv;
+  PatchFeatures f;
+};
+
+StepScene MakeStep(double step_m, int touch_rows, bool organized, int width = 80, int height = 60) {
+  StepScene s;
+  const double f = 525.0, cx = 0.5 * (width - 1), cy = 0.5 * (height - 1);
+  std::vector<std::pair<core::Vec3f, int32_t>> points;
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const bool right = u >= width / 2;
+      const double z = right && v >= touch_rows ? 1.0 + step_m : 1.0;
+      const core::Vec3f p{static_cast<float>((u - cx) * z / f),
+                          static_cast<float>((v - cy) * z / f), static_cast<float>(z)};
+      points.emplace_back(p, right ? 1 : 0);
+    }
+  }
+  if (!organized) {
+    std::mt19937 rng(3);
+    std::shuffle(points.begin(), points.end(), rng);
+  }
+  s.cloud.width = organized ? width : width * height;
+  s.cloud.height = organized ? height : 1;
+  s.sv.width = s.cloud.width;
+  s.sv.height = s.cloud.height;
+  for (const auto& [p, label] : points) {
+    s.cloud.xyz.push_back(p);
+    s.sv.pixel_label.push_back(label);
+  }
+  testing::BuildCsr(2, {{0, 1}}, &s.sv.adjacency_offsets, &s.sv.adjacency);
+  s.sv.centroid.resize(2);
+  s.sv.normal.assign(2, kFacing);
+  s.sv.curvature.assign(2, 0.f);
+  s.sv.num_points.assign(2, 0);
+  s.sv.eigenvalues.resize(2);
+  PatchFeatureExtractor().Compute(s.cloud, s.sv, &s.f);
+  s.f.normal.assign(2, kFacing);
+  return s;
+}
+
+// Kept flag of the one edge with the cues of `s` (for an unorganized cloud: its voxels and,
+// for each voxel, the side its points lie on).
+int StepEdgeKept(const StepScene& s, const LinkageParams& params, bool camera_transform,
+                 core::ThreadPool* pool = nullptr) {
+  LinkageCues cues;
+  cues.cloud = &s.cloud;
+  geometry::VoxelGridParams gp;
+  gp.use_single_camera_transform = camera_transform;
+  geometry::Voxelizer voxelizer(gp);
+  geometry::VoxelGrid grid;
+  std::vector<int32_t> owner;
+  if (!s.cloud.organized()) {
+    voxelizer.Compute(s.cloud, false, &grid);
+    for (size_t v = 0; v < grid.size(); ++v) owner.push_back(grid.centroid[v].x < 0.f ? 0 : 1);
+    cues.voxels = &grid;
+    cues.voxel_supervoxel = &owner;
+  }
+  Linkage dut(params, pool);
+  LinkageResult r;
+  dut.Compute(s.sv, s.f, cues, &r);
+  EXPECT_EQ(r.num_segments, r.edge_kept[0] ? 1 : 2);
+  return r.edge_kept[0];
+}
+
+TEST(Linkage, DepthJumpCutsTouchingSurfacesOneBehindTheOther) {
+  LinkageParams off;
+  off.depth_jump_rel = 0.f;
+  const LinkageParams on;  // 2 % of the depth, half the border pairs, at least 3
+  for (const bool organized : {true, false}) {
+    for (const bool camera : {true, false}) {
+      if (organized && !camera) continue;  // the grid only matters without pixels
+      SCOPED_TRACE(organized ? "organized"
+                   : camera  ? "unorganized, voxel columns"
+                             : "unorganized, view-direction tree");
+      // 5 cm behind along 52 of 60 rows: cut; without the cue the convex edge stays.
+      const StepScene step = MakeStep(0.05, 8, organized);
+      EXPECT_EQ(StepEdgeKept(step, off, camera), 1);
+      EXPECT_EQ(StepEdgeKept(step, on, camera), 0);
+      // Touching along the whole border: no jump, kept.
+      EXPECT_EQ(StepEdgeKept(MakeStep(0.0, 0, organized), on, camera), 1);
+      // A 1 cm step is below 2 % of 1 m: kept; at 0.5 % it is a jump.
+      const StepScene small = MakeStep(0.01, 8, organized);
+      EXPECT_EQ(StepEdgeKept(small, on, camera), 1);
+      LinkageParams fine = on;
+      fine.depth_jump_rel = 0.005f;
+      EXPECT_EQ(StepEdgeKept(small, fine, camera), 0);
+      // Touching along most of the border: the jumping share is below one half.
+      EXPECT_EQ(StepEdgeKept(MakeStep(0.05, 45, organized), on, camera), 1);
+    }
+  }
+}
+
+TEST(Linkage, CreaseEvidenceCutsAMildConcavityNextToASharpOne) {
+  // i on a flat floor, j on a 30 deg slope beside it (concave, within the 35 deg tolerance),
+  // k a patch touching both that meets i at 60 deg (a sharp concavity): the mild edge is a
+  // stretch of the same crease.
+  HandGraph g;
+  const float b = 30.f * 3.14159265f / 180.f, c = 60.f * 3.14159265f / 180.f;
+  const int i = g.Add({0.f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  const int j = g.Add({0.03f, 0.295f, 1.f}, {-std::sin(b), -std::cos(b), 0.f}, PatchType::kPlanar);
+  g.Add({0.015f, 0.28f, 1.f}, {-std::sin(c), -std::cos(c), 0.f}, PatchType::kPlanar);
+  g.Connect({{0, 1}, {0, 2}, {1, 2}});
+  LinkageParams p;
+  LinkageResult r;
+  Linkage(p).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(g.Kept(r, i, j), 1);  // off by default
+  EXPECT_EQ(g.Kept(r, i, 2), 0);  // the sharp concavity
+  p.crease_min_angle_deg = 25.f;
+  Linkage(p).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(g.Kept(r, i, j), 0);
+  EXPECT_EQ(g.Kept(r, j, i), 0);
+  // Below its minimum angle the mild concavity stays.
+  p.crease_min_angle_deg = 31.f;
+  Linkage(p).Compute(g.sv, g.f, &r);
+  EXPECT_EQ(g.Kept(r, i, j), 1);
+  // Without the sharp neighbour there is no evidence.
+  HandGraph h;
+  h.Add({0.f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  h.Add({0.03f, 0.295f, 1.f}, {-std::sin(b), -std::cos(b), 0.f}, PatchType::kPlanar);
+  h.Connect({{0, 1}});
+  p.crease_min_angle_deg = 25.f;
+  Linkage(p).Compute(h.sv, h.f, &r);
+  EXPECT_EQ(h.Kept(r, 0, 1), 1);
+}
+
+TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
+  // The mild concavity of the crease test and a convex box edge, each between a red and a
+  // blue patch (10 points each): only the concave one is cut, and only when asked.
+  HandGraph g;
+  const float b = 30.f * 3.14159265f / 180.f;
+  g.Add({0.f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.03f, 0.295f, 1.f}, {-std::sin(b), -std::cos(b), 0.f}, PatchType::kPlanar);
+  g.Add({0, 0.2f, 1.02f}, kUp, PatchType::kPlanar);
+  g.Add({0, 0.22f, 1.0f}, kFacing, PatchType::kPlanar);
+  g.Connect({{0, 1}, {2, 3}});
+  core::PointCloud cloud;
+  cloud.width = 40;
+  cloud.height = 1;
+  for (int k = 0; k < 40; ++k) {
+    const int patch = k / 10;
+    g.sv.pixel_label.push_back(patch);
+    cloud.xyz.push_back(g.f.centroid[patch]);
+    // Red patches 0 and 2 (a little noise), blue 1 and 3.
+    cloud.rgba.push_back(patch % 2 == 0 ? 0xffc81e14u + static_cast<uint32_t>(k % 3) : 0xff1e28c8u);
+  }
+  g.sv.width = 40;
+  g.sv.height = 1;
+  LinkageCues cues;
+  cues.cloud = &cloud;
+  LinkageParams p;
+  LinkageResult r;
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 1);  // off by default
+  p.color_threshold = 25.f;
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 0);
+  EXPECT_EQ(g.Kept(r, 2, 3), 1);  // convex: colour alone never cuts it
+  // The same colour on both sides: kept.
+  for (uint32_t& c : cloud.rgba) c = 0xffc81e14u;
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 1);
+}
+
 TEST(Linkage, IdenticalForAnyThreadCount) {
   const SceneLinkage s = MakeScene();
   LinkageParams p;
   p.use_extended_convexity = true;
   p.min_segment_supervoxels = 3;
+  p.crease_min_angle_deg = 25.f;
+  LinkageCues cues;  // depth jumps across the image border
+  cues.cloud = &s.cloud;
   LinkageResult reference;
-  Linkage(p).Compute(s.sv, s.f, &reference);
+  Linkage(p).Compute(s.sv, s.f, cues, &reference);
   for (int threads : {1, 2, 3}) {
     core::ThreadPool pool(threads);
     Linkage dut(p, &pool);
     LinkageResult r;
-    dut.Compute(s.sv, s.f, &r);
+    dut.Compute(s.sv, s.f, cues, &r);
     EXPECT_EQ(r.segment, reference.segment);
     EXPECT_EQ(r.edge_kept, reference.edge_kept);
     EXPECT_EQ(r.edge_convex, reference.edge_convex);

@@ -258,6 +258,59 @@ TEST(SegmentTool, NoValidPointInAnyFrameIsAnError) {
   EXPECT_NE(r.out.find("\"empty\":1"), std::string::npos) << r.out;
 }
 
+// An unorganized cloud (HEIGHT 1, the tabletop's valid points in a shuffled order) is
+// segmented, not refused: the output has the input's layout and point order, the box's points
+// carry one object label and the table's none; --png draws it through the intrinsics, and
+// --png-scale 2 writes it at half size.
+TEST(SegmentTool, UnorganizedCloudKeepsItsLayoutAndPointOrder) {
+  const fs::path dir = testing::ScratchDir("segment_tool_unorganized");
+  core::PointCloud organized;
+  core::DepthToPointCloud(Tabletop(0), Intrinsics(), nullptr, &organized);
+  core::PointCloud cloud;
+  std::vector<uint8_t> on_box;
+  for (size_t i = 0; i < organized.size(); ++i) {
+    // A fixed permutation of the pixels (7919 is prime to kW * kH).
+    const size_t px = (i * 7919) % organized.size();
+    if (!core::IsValid(organized.xyz[px])) continue;
+    cloud.xyz.push_back(organized.xyz[px]);
+    on_box.push_back(organized.xyz[px].z < 0.9f ? 1 : 0);
+  }
+  cloud.width = static_cast<int>(cloud.xyz.size());
+  cloud.height = 1;
+  io::WritePcd((dir / "in.pcd").string(), cloud);
+  const std::string k = (dir / "k.json").string();
+  std::ofstream(k) << "{\"width\": " << kW << ", \"height\": " << kH
+                   << ", \"fx\": " << Intrinsics().fx << ", \"fy\": " << Intrinsics().fy
+                   << ", \"cx\": " << Intrinsics().cx << ", \"cy\": " << Intrinsics().cy << "}\n";
+  const ProcessResult r =
+      Segment({(dir / "in.pcd").string(), (dir / "out.pcd").string(), "--intrinsics", k, "--png",
+               (dir / "out.png").string(), "--png-scale", "2"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+  const core::PointCloud out = io::ReadPcd((dir / "out.pcd").string());
+  ASSERT_EQ(out.width, cloud.width);
+  ASSERT_EQ(out.height, 1);
+  ASSERT_EQ(out.label.size(), cloud.size());
+  uint32_t box_label = 0;
+  size_t box = 0, table = 0, table_labelled = 0;
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    ASSERT_EQ(out.xyz[i].x, cloud.xyz[i].x) << i;
+    ASSERT_EQ(out.xyz[i].z, cloud.xyz[i].z) << i;
+    if (on_box[i]) {
+      if (box_label == 0) box_label = out.label[i];
+      box += out.label[i] == box_label ? 1 : 0;
+    } else {
+      ++table;
+      table_labelled += out.label[i] != 0 ? 1 : 0;
+    }
+  }
+  EXPECT_NE(box_label, 0u);
+  EXPECT_GT(box, size_t{40} * 40 * 9 / 10);
+  EXPECT_LT(table_labelled, table / 50);
+  const core::ColorImage png = io::ReadColorPng((dir / "out.png").string());
+  EXPECT_EQ(png.width, kW / 2);
+  EXPECT_EQ(png.height, kH / 2);
+}
+
 TEST(SegmentTool, TumDepthNeedsItsScale) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/TUM_depth.png");
   const fs::path tum = testing::DataDir() / "tum-frame";

@@ -331,11 +331,11 @@ void WriteSummary(core::JsonWriter* w, std::string_view key, const Summary& s) {
   w->Field("max", s.max).EndObject();
 }
 
-void PrintStageTable(const ConfigResult& r) {
+void PrintStageTable(const ConfigResult& r, const char* what = "") {
   std::printf(
-      "\nPer-stage wall time, ms (%s; per frame the median of the repetitions,\n"
+      "\nPer-stage wall time, ms (%s%s; per frame the median of the repetitions,\n"
       "then statistics over frames):\n",
-      r.config.name.c_str());
+      r.config.name.c_str(), what);
   std::printf("  %-18s %9s %9s %9s %9s %9s\n", "stage", "mean", "p50", "p90", "p99", "max");
   const auto& stages = Stages();
   for (size_t i = 0; i < stages.size(); ++i) {
@@ -357,6 +357,7 @@ struct Options {
   int warmup{1};
   int threads{0};
   bool pipelined{true};
+  bool unorganized{true};
   bool pcl{false};
   int pcl_repeat{1};
   bool pcl_single_camera_transform{false};
@@ -373,7 +374,7 @@ int Run(int argc, char** argv) {
       "Benchmarks the clutterseg Segmenter on a directory of PCD frames or on synthetic "
       "renders: per-stage wall times, frames per second for one segmenter and for two "
       "pipelined segmenters, peak RSS and heap allocations per frame at steady state."};
-  app.add_option("DIR", opt.dir, "directory of organized *.pcd frames");
+  app.add_option("DIR", opt.dir, "directory of *.pcd frames (organized or not)");
   app.add_option("--synthetic", opt.synthetic, "render N synthetic frames instead of DIR")
       ->check(CLI::Range(1, 100000));
   app.add_option("--seed", opt.seed, "synthetic seed (frames equal clutterseg-synth --seed)")
@@ -389,6 +390,8 @@ int Run(int argc, char** argv) {
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
   app.add_flag("!--no-pipelined", opt.pipelined, "skip the two-segmenter configurations");
+  app.add_flag("!--no-unorganized", opt.unorganized,
+               "skip the run of the same frames as shuffled unorganized clouds (HEIGHT 1)");
   app.add_flag("--pcl", opt.pcl, "also run PCL supervoxels + LCCP on the same frames");
   app.add_option("--pcl-repeat", opt.pcl_repeat, "PCL runs per frame (median is used)")
       ->check(CLI::Range(1, 100))
@@ -470,8 +473,22 @@ int Run(int argc, char** argv) {
     results.push_back(RunConfig(frames, params, configs[i], opt.repeat, opt.warmup,
                                 i == opt.trace_config ? opt.trace_allocs : 0));
   }
+  // The same frames without their image grid: the valid points shuffled into one row.
+  FrameSet unorganized_frames;
+  std::vector<ConfigResult> unorganized;
+  if (opt.unorganized) {
+    unorganized_frames = ShuffledUnorganized(frames, opt.seed);
+    for (size_t i = 0; i < configs.size() && configs[i].lanes == 1; ++i) {
+      std::fprintf(stderr, "running: %s, unorganized\n", configs[i].name.c_str());
+      unorganized.push_back(
+          RunConfig(unorganized_frames, params, configs[i], opt.repeat, opt.warmup, 0));
+    }
+  }
   ProcStatus after_ours = ReadProcStatus();
   for (const ConfigResult& r : results) {
+    after_ours.vm_hwm_mb = std::max(after_ours.vm_hwm_mb, r.peak_rss_mb);
+  }
+  for (const ConfigResult& r : unorganized) {
     after_ours.vm_hwm_mb = std::max(after_ours.vm_hwm_mb, r.peak_rss_mb);
   }
   const double maxrss_ours = MaxRssMb();
@@ -509,6 +526,33 @@ int Run(int argc, char** argv) {
   std::printf("  best: %s (%.1f FPS)\n", results[best].config.name.c_str(), results[best].fps);
   std::printf("  supervoxels per frame %.0f, objects per frame %.1f\n", results[0].supervoxels_mean,
               results[0].objects_mean);
+
+  if (!unorganized.empty()) {
+    size_t organized_frames = 0;
+    for (const core::PointCloud& c : frames.clouds) organized_frames += c.organized() ? 1 : 0;
+    PrintStageTable(unorganized[0], " (unorganized)");
+    std::printf(
+        "\nOrganized vs unorganized (the same %zu frames, %zu of them organized, as their valid "
+        "points in a shuffled order, HEIGHT 1; neighbourhoods then come from k-d trees), ms per "
+        "frame:\n",
+        frames.size(), organized_frames);
+    std::printf("  %-24s %10s %10s %10s %10s %8s %11s %11s %9s\n", "configuration", "org mean",
+                "org p99", "unorg mean", "unorg p99", "ratio", "org CPU/fr", "unorg CPU/fr",
+                "new/fr");
+    for (size_t i = 0; i < unorganized.size(); ++i) {
+      const ConfigResult& o = results[i];
+      const ConfigResult& u = unorganized[i];
+      char allocs[32] = "n/a";
+      if (AllocCountingAvailable()) {
+        std::snprintf(allocs, sizeof(allocs), "%.2f",
+                      static_cast<double>(u.allocs.news) / static_cast<double>(u.frames));
+      }
+      std::printf("  %-24s %10.2f %10.2f %10.2f %10.2f %7.2fx %11.2f %11.2f %9s\n",
+                  u.config.name.c_str(), o.latency.mean, o.latency.p99, u.latency.mean,
+                  u.latency.p99, u.latency.mean / o.latency.mean, o.cpu_ms_per_frame,
+                  u.cpu_ms_per_frame, allocs);
+    }
+  }
 
   std::printf(
       "\nMemory: RSS after loading frames %.1f MiB (frames hold %.1f MiB); peak during "
@@ -579,8 +623,7 @@ int Run(int argc, char** argv) {
   w.EndArray();
   w.Field("supervoxels_mean", results[0].supervoxels_mean);
   w.Field("objects_mean", results[0].objects_mean);
-  w.Key("configs").BeginArray();
-  for (const ConfigResult& r : results) {
+  auto write_config = [&](const ConfigResult& r) {
     const double nf = static_cast<double>(r.frames);
     w.BeginObject();
     w.Field("name", r.config.name).Field("lanes", r.config.lanes);
@@ -600,8 +643,16 @@ int Run(int argc, char** argv) {
     for (size_t i = 0; i < Stages().size(); ++i) WriteSummary(&w, Stages()[i].name, r.stages[i]);
     w.EndObject();
     w.EndObject();
-  }
+  };
+  w.Key("configs").BeginArray();
+  for (const ConfigResult& r : results) write_config(r);
   w.EndArray();
+  if (!unorganized.empty()) {
+    // The same frames shuffled into unorganized clouds (ShuffledUnorganized), 1-lane configs.
+    w.Key("unorganized_configs").BeginArray();
+    for (const ConfigResult& r : unorganized) write_config(r);
+    w.EndArray();
+  }
   w.Field("best_config", results[best].config.name).Field("best_fps", results[best].fps);
   w.Key("memory_mb").BeginObject();
   w.Field("frames_heap", frames_mb).Field("rss_after_load", after_load.vm_rss_mb);

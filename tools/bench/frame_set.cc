@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <random>
 #include <stdexcept>
 
 #include "clutterseg/core/text_and_color.h"
@@ -72,6 +73,35 @@ FrameSet RenderSyntheticFrames(int count, uint64_t seed, int threads) {
     std::snprintf(name, sizeof(name), "scene_%04d", s);
     set.names.emplace_back(name);
     set.clouds.push_back(std::move(cloud));
+  }
+  return set;
+}
+
+FrameSet ShuffledUnorganized(const FrameSet& frames, uint64_t seed) {
+  FrameSet set;
+  set.source = frames.source + ", shuffled unorganized";
+  set.names = frames.names;
+  set.intrinsics = frames.intrinsics;
+  set.clouds.resize(frames.size());
+  std::vector<size_t> order;
+  for (size_t s = 0; s < frames.size(); ++s) {
+    const core::PointCloud& in = frames.clouds[s];
+    order.clear();
+    for (size_t i = 0; i < in.size(); ++i) {
+      if (core::IsValid(in.xyz[i])) order.push_back(i);
+    }
+    std::mt19937_64 rng(seed + s);
+    std::shuffle(order.begin(), order.end(), rng);
+    core::PointCloud& out = set.clouds[s];
+    out.width = static_cast<int>(order.size());
+    out.height = 1;
+    const bool color = in.rgba.size() == in.size();
+    out.xyz.reserve(order.size());
+    if (color) out.rgba.reserve(order.size());
+    for (const size_t i : order) {
+      out.xyz.push_back(in.xyz[i]);
+      if (color) out.rgba.push_back(in.rgba[i]);
+    }
   }
   return set;
 }

@@ -33,4 +33,9 @@ FrameSet LoadPcdDirectory(const std::string& dir, size_t max_frames);
 /// equal that tool's output. `threads` render threads (0 = all cores).
 FrameSet RenderSyntheticFrames(int count, uint64_t seed, int threads);
 
+/// The same frames as unorganized clouds: the valid points of frame s (with their colour) in
+/// a random order (std::mt19937_64 seeded with seed + s) as one row, HEIGHT 1, as an
+/// unorganized PCD holds them. The segmenter then finds neighbourhoods without the image grid.
+FrameSet ShuffledUnorganized(const FrameSet& frames, uint64_t seed);
+
 }  // namespace clutterseg::bench

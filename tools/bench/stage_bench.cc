@@ -93,7 +93,9 @@ StageInputs* GetInputs(benchmark::State& state) {
   graph::PatchFeatureExtractor fx(pool);
   fx.Compute(in->work, in->sv, &in->features);
   graph::Linkage linkage(in->params.linkage, pool);
-  linkage.Compute(in->sv, in->features, &in->link);
+  graph::LinkageCues cues;
+  cues.cloud = &in->cloud;
+  linkage.Compute(in->sv, in->features, cues, &in->link);
   optimize::PlaneLabeler labeler(in->params.planes);
   labeler.Compute(in->sv, in->features, &in->planes);
   pipeline::Segmenter segmenter(in->params, pool);
@@ -174,8 +176,10 @@ void BM_Linkage(benchmark::State& state) {
   if (in == nullptr) return;
   graph::Linkage linkage(in->params.linkage, in->pool.get());
   graph::LinkageResult link;
+  graph::LinkageCues cues;  // as the Segmenter passes them (an organized frame)
+  cues.cloud = &in->cloud;
   for (auto _ : state) {
-    linkage.Compute(in->sv, in->features, &link);
+    linkage.Compute(in->sv, in->features, cues, &link);
     benchmark::DoNotOptimize(link.segment.data());
   }
   state.counters["segments"] = link.num_segments;

@@ -18,7 +18,7 @@
 #   lib/python3/dist-packages/clutterseg/  Python bindings
 #   share/java/clutterseg_lcmtypes.jar     Java bindings (lcm-spy)
 #   share/clutterseg/lcmtypes/clutterseg/  the .lcm files
-#   share/clutterseg/config/               paper.yaml (and the shipped defaults)
+#   share/clutterseg/config/               paper.yaml, previous-defaults.yaml (and the shipped defaults)
 #   /etc/clutterseg/clutterseg.yaml        the daemon's configuration (the prefix's sysconfdir)
 #   lib/systemd/system/clutterseg.service, lib/udev/rules.d/50-clutterseg.rules
 include_guard(GLOBAL)
@@ -82,6 +82,7 @@ install(FILES "${PROJECT_BINARY_DIR}/clutterseg.pc"
 install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml"
         DESTINATION ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg COMPONENT daemon)
 install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml" "${PROJECT_SOURCE_DIR}/config/paper.yaml"
+              "${PROJECT_SOURCE_DIR}/config/previous-defaults.yaml"
         DESTINATION ${CMAKE_INSTALL_DATADIR}/clutterseg/config COMPONENT daemon)
 configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
                "${PROJECT_BINARY_DIR}/clutterseg.service" @ONLY)
