@@ -26,6 +26,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, refinement_iterations),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, growth_regions),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, min_seed_occupancy),
+      CLUTTERSEG_SEGMENTER_KEY(supervoxel, max_supervoxels),
 
       CLUTTERSEG_SEGMENTER_KEY(linkage, concavity_tolerance_deg),
       CLUTTERSEG_SEGMENTER_KEY(linkage, use_sanity_criterion),
@@ -62,6 +63,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(planes, refit_iterations),
 
       CLUTTERSEG_SEGMENTER_KEY(objects, min_object_points),
+      CLUTTERSEG_SEGMENTER_KEY(objects, max_objects),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_min_area_m2),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_snap_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, below_support_margin_m),

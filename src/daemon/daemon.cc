@@ -85,6 +85,7 @@ struct Daemon::Impl {
   std::atomic<uint64_t> discarded{0};
   std::atomic<uint64_t> reloads{0};
   std::atomic<int> last_num_objects{0};
+  std::atomic<uint64_t> frames_capped{0};  // frames that reached a segmenter cap
 
   mutable std::mutex error_mutex;
   bool failed{false};
@@ -173,6 +174,26 @@ struct Daemon::Impl {
 
   // ---- ordered completion: frames in capture order to the sinks (FrameRunner::Done) ----
 
+  // Counts a frame that reached the segmenter's caps; the first one and every 1000th after
+  // it are logged, naming the key.
+  void NoteCapped(const pipeline::SegmentationResult& result) {
+    const uint64_t n = frames_capped.fetch_add(1) + 1;
+    if (n != 1 && n % 1000 != 0) return;
+    const pipeline::SegmenterParams& p = config.segmenter;
+    std::string what;
+    if (result.supervoxels_capped) {
+      what = "more seeds than segmenter.supervoxel.max_supervoxels = " +
+             std::to_string(p.supervoxel.max_supervoxels) + " (some left out)";
+    }
+    if (result.objects_capped) {
+      what += std::string(what.empty() ? "" : " and ") +
+              "more objects than segmenter.objects.max_objects = " +
+              std::to_string(p.objects.max_objects) + " (the smallest left as background)";
+    }
+    Log(LogLevel::kWarn, std::to_string(n) + (n == 1 ? " frame" : " frames") +
+                             " so far reached a segmenter cap, the last with " + what);
+  }
+
   void Complete(const pipeline::FrameRunner::Lane& lane, uint64_t, const std::string* error) {
     LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
     if (error != nullptr) {
@@ -203,6 +224,7 @@ struct Daemon::Impl {
       }
     }
     last_num_objects.store(out.messages.objects.num_objects);
+    if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
     publisher.Offer(&out.messages);
     if (overlay) overlay->Offer(&out.overlay);
     const uint64_t n = handed.fetch_add(1) + 1;
@@ -273,6 +295,7 @@ struct Daemon::Impl {
     c.queue_depth = static_cast<int32_t>(queue->size());
     c.queue_capacity = static_cast<int32_t>(queue->capacity());
     c.last_num_objects = last_num_objects.load();
+    c.frames_capped = frames_capped.load();
     c.device_state = capture.device_state();
     c.last_error = LastError();
     return c;
@@ -374,6 +397,7 @@ DaemonStats Daemon::stats() const {
   s.publish_failures = d.publisher.publish_failures();
   s.reconnect_attempts = d.capture.reconnect_attempts();
   s.param_reloads = d.reloads.load();
+  s.frames_capped = d.frames_capped.load();
   s.device_state = d.capture.device_state();
   s.source = d.source->report();
   return s;

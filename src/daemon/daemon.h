@@ -37,6 +37,8 @@ struct DaemonStats {
   uint64_t publish_failures{0};
   uint64_t reconnect_attempts{0};
   uint64_t param_reloads{0};  ///< segmenter parameter sets applied after start
+  uint64_t frames_capped{0};  ///< frames that reached segmenter.supervoxel.max_supervoxels or
+                              ///< segmenter.objects.max_objects
   /// What the source delivered and could not (frames skipped with their reasons, the frames
   /// a recording holds, empty frames); see core::SourceReport.
   core::SourceReport source;

@@ -37,6 +37,27 @@ void Refiner::Union(int32_t a, int32_t b) {
   parent_[a] = b;  // the smaller id is the root: deterministic
 }
 
+uint32_t Refiner::KeepLargestGroups(uint32_t cap) {
+  // The `cap` largest labelled groups (ties: the lower label), relabelled 1..cap in their
+  // label order; the others become background.
+  capped_order_.clear();
+  for (const auto& [first, g] : group_order_) {
+    if (group_label_[g] != 0) capped_order_.emplace_back(group_points_[g], group_label_[g], g);
+  }
+  std::nth_element(capped_order_.begin(), capped_order_.begin() + cap, capped_order_.end(),
+                   [](const auto& a, const auto& b) {
+                     return std::get<0>(a) != std::get<0>(b) ? std::get<0>(a) > std::get<0>(b)
+                                                             : std::get<1>(a) < std::get<1>(b);
+                   });
+  for (size_t k = cap; k < capped_order_.size(); ++k)
+    group_label_[std::get<2>(capped_order_[k])] = 0;
+  uint32_t next = 0;
+  for (const auto& [first, g] : group_order_) {
+    if (group_label_[g] != 0) group_label_[g] = ++next;
+  }
+  return next;
+}
+
 bool Refiner::KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const {
   const ObjectParams& params = params_;
   if (group_points_[g] < static_cast<uint64_t>(params.min_object_points)) return false;
@@ -327,6 +348,8 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   for (const auto& [first, g] : group_order_) {
     group_label_[g] = KeepGroup(planes, static_cast<int32_t>(g)) ? ++next : 0u;
   }
+  result->objects_capped = next > static_cast<uint32_t>(params.max_objects);
+  if (result->objects_capped) next = KeepLargestGroups(static_cast<uint32_t>(params.max_objects));
   sv_label_.resize(n + 1);
   sv_label_[0] = 0;
   for (size_t i = 0; i < n; ++i) {

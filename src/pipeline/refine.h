@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <tuple>
 #include <vector>
 
 #include "clutterseg/core/camera_intrinsics.h"
@@ -65,6 +66,9 @@ class Refiner {
 
   int32_t Find(int32_t x);
   bool KeepGroup(const optimize::PlaneLabeling& planes, int32_t g) const;
+  // Keeps the `cap` largest labelled groups (group_label_), the others become background;
+  // returns the number kept.
+  uint32_t KeepLargestGroups(uint32_t cap);
   void Union(int32_t a, int32_t b);
   void SumGroups(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features);
   void MergeSmallGroups(const supervoxel::Supervoxels& sv);
@@ -86,6 +90,7 @@ class Refiner {
   std::vector<double> group_height_;
   std::vector<uint64_t> group_height_points_;
   std::vector<uint64_t> group_points_;
+  std::vector<std::tuple<uint64_t, uint32_t, size_t>> capped_order_;  // points, label, group
   std::vector<core::Vec3f> group_centroid_;
   std::vector<uint64_t> pair_keys_;
   std::vector<std::pair<int32_t, int32_t>> merge_into_;

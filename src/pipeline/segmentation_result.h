@@ -44,6 +44,10 @@ struct SegmentationResult {
   std::vector<Plane> planes;
   uint32_t num_supervoxels{0};
   uint32_t num_valid_points{0};
+  /// The frame reached a cap: more seeds than supervoxel.max_supervoxels (some left out), or
+  /// more objects than objects.max_objects (the smallest became background).
+  bool supervoxels_capped{false};
+  bool objects_capped{false};
   StageTimes times;  ///< per stage (StageTable()) and the whole call
 };
 

@@ -93,6 +93,8 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   result->objects.clear();
   result->planes.clear();
   result->num_supervoxels = 0;
+  result->supervoxels_capped = false;
+  result->objects_capped = false;
   if (m.work.num_valid == 0) return;
 
   m.supervoxelizer.Compute(work, &m.sv);
@@ -103,6 +105,7 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   times[Stage::kGrowth] = st.growth_ms;
   times[Stage::kSupervoxelStats] = st.output_ms;
   result->num_supervoxels = static_cast<uint32_t>(m.sv.size());
+  result->supervoxels_capped = m.sv.capped;
 
   m.features.Compute(work, m.sv, &m.patch);
   times[Stage::kFeatures] = m.patch.time_ms;

@@ -7,6 +7,7 @@ namespace clutterseg::pipeline {
 void ObjectParams::ValidateOrThrow() const {
   const core::ParamCheck check(kSection);
   check.InRange("min_object_points", min_object_points, 1, 100000000);
+  check.InRange("max_objects", max_objects, 1, 65535);
   check.InRange("support_min_area_m2", support_min_area_m2, 1e-6f, 1e4f, "m^2");
   check.InRange("support_snap_distance_m", support_snap_distance_m, 0.f, 1.f, "m");
   check.InRange("below_support_margin_m", below_support_margin_m, 0.f, 10.f, "m");

@@ -15,6 +15,11 @@ struct ObjectParams {
   static constexpr std::string_view kSection = "segmenter.objects";
 
   int min_object_points{150};  ///< smaller segments are dropped (label 0)
+  /// At most this many objects per frame: beyond it the largest are kept (ids still in the
+  /// order of their first pixel) and the rest become background; SegmentationResult::
+  /// objects_capped says so. Keeps objects_t within what a subscriber receives and ids
+  /// within the label image's 16 bits.
+  int max_objects{1000};
   /// A plane whose assigned surface covers at least this area is a support (table, floor,
   /// wall) and becomes background, m^2. Object faces are smaller.
   float support_min_area_m2{0.15f};

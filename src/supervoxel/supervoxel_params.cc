@@ -17,6 +17,7 @@ void SupervoxelParams::ValidateOrThrow() const {
                 "spatial_importance", spatial_importance,
                 "> 0 when color_importance and normal_importance are 0");
   check.InRange("refinement_iterations", refinement_iterations, 0, 100);
+  check.InRange("max_supervoxels", max_supervoxels, 1, 1 << 24);
   check.InRange("growth_regions", growth_regions, 1, 64);
   check.InRange("min_seed_occupancy", min_seed_occupancy, 0.f, 1.f);
 }

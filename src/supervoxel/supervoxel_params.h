@@ -33,6 +33,12 @@ struct SupervoxelParams {
   /// this number, never on the number of threads. Two strips halve the growth stage's
   /// latency on two cores with the same quality (mOSD, synthetic); see docs/method.md.
   int growth_regions{2};
+  /// At most this many seeds per frame. A frame with more (a wide field of view, a seed
+  /// spacing far below the voxel's) keeps every k-th seed in voxel order, spread over the
+  /// whole frame, and its supervoxels grow larger; Supervoxels::capped says so. The
+  /// supervoxels are the seeds' plus one per isolated piece of surface no seed reaches
+  /// (bounded by the voxels). Bounds the time and memory of every later stage.
+  int max_supervoxels{50000};
 
   /// @throws std::invalid_argument naming the key (`segmenter.supervoxel.<field>`) and value.
   void ValidateOrThrow() const;

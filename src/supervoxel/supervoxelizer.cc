@@ -172,6 +172,7 @@ void Supervoxelizer::Compute(const core::PointCloud& cloud, Supervoxels* out) {
   out->timings.adjacency_ms = Ms(t1, t2);
   out->timings.normals_ms = Ms(t2, t3);
   out->timings.seeding_ms = Ms(t3, t4);
+  out->capped = capped_;
   out->timings.growth_ms = Ms(t4, t5);
   out->timings.output_ms = Ms(t5, t6);
 }
@@ -283,6 +284,14 @@ void Supervoxelizer::SelectSeeds() {
   }
   std::sort(seed_.begin(), seed_.end());
   seed_.erase(std::unique(seed_.begin(), seed_.end()), seed_.end());
+  const auto cap = static_cast<size_t>(params_.max_supervoxels);
+  capped_ = seed_.size() > cap;
+  if (capped_) {
+    // Every k-th seed in voxel order, spread over the frame: seed i * size / cap.
+    const size_t size = seed_.size();
+    for (size_t i = 0; i < cap; ++i) seed_[i] = seed_[i * size / cap];
+    seed_.resize(cap);
+  }
   num_seeds_ = seed_.size();
 }
 

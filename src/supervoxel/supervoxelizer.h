@@ -85,6 +85,7 @@ class Supervoxelizer {
   geometry::Voxelizer voxelizer_;
   geometry::VoxelGrid grid_;
   size_t num_seeds_{0};
+  bool capped_{false};  // the last frame's seeds were thinned to max_supervoxels
   bool use_color_{false};
   float spatial_weight_{0.f};  // ws / (3 R^2)
   float color_weight_{0.f};    // wc / m^2

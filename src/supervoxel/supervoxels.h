@@ -48,6 +48,8 @@ struct Supervoxels {
   std::vector<uint32_t> adjacency;          ///< 2 * edges entries
   /// Time of each step of the Compute that produced this output (zero when made elsewhere).
   SupervoxelTimings timings;
+  /// The frame had more seeds than SupervoxelParams::max_supervoxels; some were left out.
+  bool capped{false};
 
   size_t size() const { return centroid.size(); }
   size_t num_edges() const { return adjacency.size() / 2; }

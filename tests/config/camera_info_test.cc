@@ -60,7 +60,8 @@ TEST(CameraInfo, MalformedFilesAreRefusedNamingTheField) {
   const std::string short_data = Write("short.yaml", WithMatrix("570, 0, 314.5, 0, 570"));
   EXPECT_NE(ErrorOf(short_data).find("must hold 9 numbers"), std::string::npos);
   const std::string text = Write("text.yaml", WithMatrix("570, 0, abc, 0, 570, 235.5, 0, 0, 1"));
-  EXPECT_NE(ErrorOf(text).find("'camera_matrix.data[2]' = 'abc' is not a number"), std::string::npos)
+  EXPECT_NE(ErrorOf(text).find("'camera_matrix.data[2]' = 'abc' is not a number"),
+            std::string::npos)
       << ErrorOf(text);
   const std::string no_size =
       Write("no_size.yaml", "camera_matrix: {rows: 3, cols: 3, data: [1, 0, 0, 0, 1, 0, 0, 0, 1]}");

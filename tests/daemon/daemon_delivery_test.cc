@@ -23,6 +23,7 @@
 
 #include "clutterseg/core/exit_codes.h"
 #include "clutterseg/io/png_io.h"
+#include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
@@ -391,6 +392,37 @@ TEST_F(DaemonDelivery, CalibratedIntrinsicsReplaceTheRecordingsFieldOfView) {
       kExitUsage)
       << err;
   EXPECT_NE(err.find("camera.intrinsics_file"), std::string::npos) << err;
+}
+
+// A frame beyond segmenter.objects.max_objects is still published (the largest objects) and
+// counted: status_t.frames_capped and a warning naming the key.
+TEST_F(DaemonDelivery, FramesReachingTheObjectCapAreCountedAndNamed) {
+  const std::string log = Scratch("capped.lcmlog");
+  std::string err;
+  ASSERT_EQ(
+      testutil::Run(Args("file://" + log + "?mode=w", {"--set", "segmenter.objects.max_objects=1"}),
+                    seconds(60), &err),
+      kExitOk)
+      << err;
+  EXPECT_NE(err.find("more objects than segmenter.objects.max_objects = 1"), std::string::npos)
+      << err;
+  int64_t capped = -1;
+  size_t objects = 0;
+  for (const testutil::LogEvent& ev : testutil::ReadLcmLog(log)) {
+    if (ev.channel == "CLUTTERSEG_OBJECTS") {
+      clutterseg::objects_t o;
+      ASSERT_GT(o.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())), 0);
+      EXPECT_LE(o.num_objects, 1);
+      ++objects;
+    } else if (ev.channel == "CLUTTERSEG_STATUS") {
+      clutterseg::status_t st;
+      ASSERT_GT(st.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())), 0);
+      capped = st.frames_capped;
+    }
+  }
+  EXPECT_EQ(objects, 6u);
+  EXPECT_GT(capped, 0) << "the synthetic scenes hold several objects each";
+  EXPECT_LE(capped, 6);
 }
 
 TEST_F(DaemonDelivery, NegativeCountsOnTheCommandLineAreUsageErrors) {

@@ -93,6 +93,53 @@ TEST_F(SegmenterTest, SeparatesFreeStandingObjectsAndRemovesTheTable) {
   EXPECT_EQ(checked, 3);
 }
 
+// The caps: a frame with more objects than objects.max_objects keeps the largest, renumbered
+// in their order; one with more seeds than supervoxel.max_supervoxels grows fewer, larger
+// supervoxels. Both are flagged; below the caps nothing changes.
+TEST_F(SegmenterTest, CapsKeepTheLargestObjectsAndBoundTheSupervoxels) {
+  synth::SceneParams sp = SimpleParams();
+  sp.min_objects = 6;
+  sp.max_objects = 6;
+  const Rendered r = Render(sp, 21, /*noise=*/false);
+  Segmenter free_run(params_);
+  SegmentationResult all;
+  free_run.Process(r.cloud, r.intrinsics, &all);
+  ASSERT_GE(all.objects.size(), 4u);
+  EXPECT_FALSE(all.objects_capped);
+  EXPECT_FALSE(all.supervoxels_capped);
+
+  SegmenterParams capped_params = params_;
+  capped_params.objects.max_objects = 3;
+  Segmenter capped(capped_params);
+  SegmentationResult three;
+  capped.Process(r.cloud, r.intrinsics, &three);
+  EXPECT_TRUE(three.objects_capped);
+  ASSERT_EQ(three.objects.size(), 3u);
+  std::vector<uint32_t> sizes;
+  for (const Object& o : all.objects) sizes.push_back(o.num_points);
+  std::sort(sizes.rbegin(), sizes.rend());
+  std::vector<uint32_t> kept;
+  for (size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(three.objects[k].id, k + 1);
+    kept.push_back(three.objects[k].num_points);
+  }
+  std::sort(kept.rbegin(), kept.rend());
+  EXPECT_EQ(kept, std::vector<uint32_t>(sizes.begin(), sizes.begin() + 3)) << "the largest three";
+  for (uint16_t l : three.labels.data) EXPECT_LE(l, 3u);
+
+  SegmenterParams sv_params = params_;
+  sv_params.supervoxel.max_supervoxels = static_cast<int>(all.num_supervoxels / 4);
+  Segmenter few(sv_params);
+  SegmentationResult coarse;
+  few.Process(r.cloud, r.intrinsics, &coarse);
+  EXPECT_TRUE(coarse.supervoxels_capped);
+  // The seeds are thinned to the cap; the few isolated pieces of surface no remaining seed
+  // reaches become supervoxels of their own.
+  const uint32_t cap = all.num_supervoxels / 4;
+  EXPECT_LE(coarse.num_supervoxels, cap + cap / 50);
+  EXPECT_GT(coarse.num_supervoxels, 0u);
+}
+
 // Replaces the objects of a generated scene (keeping its table and camera) by `boxes`, each
 // {centre x, centre y, size x, size y, size z, bottom z above the table top}, labelled 1..n.
 struct BoxSpec {
