@@ -383,22 +383,8 @@ std::string Daemon::error() const {
 DaemonStats Daemon::stats() const {
   const Impl& d = *impl_;
   DaemonStats s;
-  s.frames_captured = d.capture.captured();
-  s.frames_processed = d.processed.load();
-  s.frames_published = d.publisher.frames_published();
-  s.frames_dropped = d.queue->dropped();
-  s.frames_discarded = d.discarded.load();
-  s.frames_publish_dropped = d.publisher.frames_dropped();
-  if (d.overlay) {
-    s.overlays_written = d.overlay->written();
-    s.overlays_dropped = d.overlay->dropped();
-    s.overlay_failures = d.overlay->failures();
-  }
-  s.publish_failures = d.publisher.publish_failures();
-  s.reconnect_attempts = d.capture.reconnect_attempts();
+  static_cast<StatusCounters&>(s) = d.Counters();
   s.param_reloads = d.reloads.load();
-  s.frames_capped = d.frames_capped.load();
-  s.device_state = d.capture.device_state();
   s.source = d.source->report();
   return s;
 }

@@ -23,26 +23,14 @@ class SourceOpenError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-/// A snapshot of the daemon's counters.
-struct DaemonStats {
-  uint64_t frames_captured{0};         ///< frames read from the source
-  uint64_t frames_processed{0};        ///< frames segmented
-  uint64_t frames_published{0};        ///< objects_t messages the transport accepted
-  uint64_t frames_dropped{0};          ///< dropped by the frame queue (oldest first)
-  uint64_t frames_publish_dropped{0};  ///< dropped in front of a transport that fell behind
-  uint64_t overlays_written{0};
-  uint64_t overlays_dropped{0};  ///< dropped in front of a disk that fell behind
-  uint64_t overlay_failures{0};  ///< overlay PNGs that could not be written
-  uint64_t frames_discarded{0};  ///< waiting frames not processed because of a stop request
-  uint64_t publish_failures{0};
-  uint64_t reconnect_attempts{0};
+/// A snapshot of the daemon's counters: those of its status reports (StatusCounters: frames
+/// captured, processed, published, dropped and why, overlays, failures, device state...) and
+/// the parameter reloads and the source's own account of its frames.
+struct DaemonStats : StatusCounters {
   uint64_t param_reloads{0};  ///< segmenter parameter sets applied after start
-  uint64_t frames_capped{0};  ///< frames that reached segmenter.supervoxel.max_supervoxels or
-                              ///< segmenter.objects.max_objects
   /// What the source delivered and could not (frames skipped with their reasons, the frames
   /// a recording holds, empty frames); see core::SourceReport.
   core::SourceReport source;
-  DeviceState device_state{DeviceState::kStarting};
 };
 
 /// The running daemon, a source, a runner and sinks: Capture (FrameSource -> drop-oldest
