@@ -249,14 +249,21 @@ struct Listener {
   void OnStatus(std::string_view channel, const clutterseg::status_t& msg) {
     const clutterseg::status_t* s = &msg;
     if (quiet_status) return;
+    char extra[160] = "";
+    if (s->overlays_written + s->overlays_dropped + s->overlay_failures > 0) {
+      std::snprintf(extra, sizeof(extra), ", overlays %lld written / %lld dropped / %lld failed",
+                    static_cast<long long>(s->overlays_written),
+                    static_cast<long long>(s->overlays_dropped),
+                    static_cast<long long>(s->overlay_failures));
+    }
     std::printf(
         "%.*s %s: %.1f fps, segment p50 %.1f p99 %.1f ms, capture->publish p50 %.1f p99 "
-        "%.1f ms, queue %d/%d, captured %lld processed %lld dropped %lld, %s%s%s\n",
+        "%.1f ms, queue %d/%d, captured %lld processed %lld dropped %lld%s, %s%s%s\n",
         static_cast<int>(channel.size()), channel.data(), s->camera_name.c_str(), s->fps,
         s->segment_p50_ms, s->segment_p99_ms, s->capture_to_publish_p50_ms,
         s->capture_to_publish_p99_ms, s->queue_depth, s->queue_capacity,
         static_cast<long long>(s->frames_captured), static_cast<long long>(s->frames_processed),
-        static_cast<long long>(s->frames_dropped), s->device_state_name.c_str(),
+        static_cast<long long>(s->frames_dropped), extra, s->device_state_name.c_str(),
         s->last_error.empty() ? "" : ", last error: ", s->last_error.c_str());
     std::fflush(stdout);
   }

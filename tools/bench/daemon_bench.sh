@@ -10,6 +10,9 @@
 # steady state.
 # Usage: tools/bench/daemon_bench.sh [BUILD_DIR] [FRAMES] RECORDING.oni...
 #   BUILD_DIR defaults to build/release, FRAMES (published at speed max) to 600.
+#   OVERLAYS=1 adds a third run per recording: 30 Hz with overlay PNGs written (--png-dir), to
+#   compare its latency with the plain 30 Hz run; its "dropped" column then also gives the
+#   overlays written and dropped.
 # Make recordings with: clutterseg-synth --oni out.oni --count 360 --seed 101
 #                       clutterseg-record --from-pcd ../shared/data/mosd-learn --fps 30 out.oni
 set -euo pipefail
@@ -28,22 +31,28 @@ echo "| recording | mode | frames | FPS | segment p50 / p99 ms | capture-to-publ
 echo "|---|---|---|---|---|---|---|---|"
 for oni in "$@"; do
   name=$(basename "$oni")
-  for mode in max realtime; do
+  modes=(max realtime)
+  [ "${OVERLAYS:-0}" = 1 ] && modes+=(overlays)
+  for mode in "${modes[@]}"; do
     log=$tmp/$mode.lcmlog
     if [ "$mode" = max ]; then
       args=(--speed max --loop --max-frames "$frames")
-    else
+    elif [ "$mode" = realtime ]; then
       args=(--speed realtime --loop --max-frames "$rt_frames")
+    else
+      rm -rf "$tmp/png" && mkdir -p "$tmp/png"
+      args=(--speed realtime --loop --max-frames "$rt_frames" --png-dir "$tmp/png")
     fi
     start=$(date +%s.%N)
     /usr/bin/time -f "%M" -o "$tmp/rss" "$daemon" --source "$oni" "${args[@]}" \
       --lcm-url "file://$log?mode=w" --log-level warn > /dev/null 2>&1
     end=$(date +%s.%N)
     "$listen" --lcm-url "file://$log?speed=0" > "$tmp/listen.txt" 2>&1 || true
-    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" "$warmup" <<'PY'
+    pngs=$(find "$tmp/png" -name '*.png' 2> /dev/null | wc -l)
+    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" "$warmup" "$pngs" <<'PY'
 import re, sys
-name, mode, start, end, rss_kb, listen, warmup = sys.argv[1:]
-seg, c2p, dropped = [], [], "?"
+name, mode, start, end, rss_kb, listen, warmup, pngs = sys.argv[1:]
+seg, c2p, dropped, overlays = [], [], "?", ""
 for line in open(listen):
     m = re.search(r"^CLUTTERSEG_OBJECTS .*segment ([\d.]+) ms, capture->publish ([\d.]+) ms", line)
     if m:
@@ -52,6 +61,9 @@ for line in open(listen):
     m = re.search(r"^CLUTTERSEG_STATUS .*dropped (\d+)", line)
     if m:
         dropped = m.group(1)
+    m = re.search(r"^CLUTTERSEG_STATUS .*overlays (\d+) written / (\d+) dropped", line)
+    if m and mode == "overlays":
+        overlays = "; overlays %s written, %s dropped, %s PNGs" % (m.group(1), m.group(2), pngs)
 def pct(v, q):  # nearest rank
     v = sorted(v)
     return v[max(0, min(len(v) - 1, int(-(-q * len(v) // 100)) - 1))] if v else float("nan")
@@ -59,8 +71,9 @@ wall = float(end) - float(start)
 n = len(seg)
 seg, c2p = seg[int(warmup):], c2p[int(warmup):]
 print("| %s | %s | %d | %.1f | %.1f / %.1f | %.1f / %.1f | %s | %.0f |" % (
-    name, "speed max" if mode == "max" else "30 Hz", n, n / wall,
-    pct(seg, 50), pct(seg, 99), pct(c2p, 50), pct(c2p, 99), dropped, int(rss_kb) / 1024))
+    name, {"max": "speed max", "realtime": "30 Hz", "overlays": "30 Hz + PNGs"}[mode], n, n / wall,
+    pct(seg, 50), pct(seg, 99), pct(c2p, 50), pct(c2p, 99), dropped + overlays,
+    int(rss_kb) / 1024))
 PY
   done
 done
