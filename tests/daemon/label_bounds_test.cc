@@ -11,7 +11,6 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <sys/resource.h>
 
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/messages.h"
@@ -25,12 +24,6 @@ namespace clutterseg::daemon {
 namespace {
 
 namespace fs = std::filesystem;
-
-long PeakRssKib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_maxrss;
-}
 
 void PutRun(uint16_t label, uint32_t run, std::vector<uint8_t>* data) {
   data->push_back(static_cast<uint8_t>(label & 0xff));
@@ -60,7 +53,7 @@ clutterseg::label_image_t RleImage(int w, int h) {
 // of overlay in clutterseg-listen.
 TEST(LabelImageBounds, SizesBeyondTheFrameLimitsAreRefusedBeforeAllocating) {
   core::LabelImage out;
-  const long before = PeakRssKib();
+  const long before = testing::PeakRssKib();
   const clutterseg::label_image_t huge = RleImage(16384, 16384);
   EXPECT_LT(huge.data.size(), 200u);
   try {
@@ -71,7 +64,7 @@ TEST(LabelImageBounds, SizesBeyondTheFrameLimitsAreRefusedBeforeAllocating) {
               std::string::npos)
         << e.what();
   }
-  EXPECT_LT(PeakRssKib() - before, 64 * 1024) << "KiB of peak RSS grown";
+  EXPECT_LT(testing::PeakRssKib() - before, 64 * 1024) << "KiB of peak RSS grown";
   // The largest image within the limits decodes.
   DecodeLabelImage(RleImage(4096, 4096), &out);
   EXPECT_EQ(out.width, 4096);

@@ -16,24 +16,18 @@
 #include <vector>
 
 #include <gtest/gtest.h>
-#include <sys/resource.h>
 
 #include "clutterseg/core/frame_limits.h"
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/io/pcd.h"
 #include "clutterseg/io/png_io.h"
+#include "tests/testing/run_process.h"
 #include "tests/testing/test_data.h"
 
 namespace clutterseg::io {
 namespace {
 
 namespace fs = std::filesystem;
-
-long PeakRssKib() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return u.ru_maxrss;
-}
 
 void PutBe32(std::string* s, uint32_t v) {
   for (int b = 3; b >= 0; --b) s->push_back(static_cast<char>((v >> (8 * b)) & 0xff));
@@ -80,7 +74,7 @@ TEST(ReadLimitsTest, HugeDeclaredPngIsRefusedBeforeAllocating) {
   const fs::path dir = testing::ScratchDir("limits_png");
   const fs::path path = dir / "huge-depth.png";
   std::ofstream(path, std::ios::binary) << HugeDepthPng(16000, 16000, 530 * 1024);
-  const long before = PeakRssKib();
+  const long before = testing::PeakRssKib();
   for (int colour = 0; colour < 2; ++colour) {
     try {
       if (colour == 0) {
@@ -97,7 +91,7 @@ TEST(ReadLimitsTest, HugeDeclaredPngIsRefusedBeforeAllocating) {
           << msg;
     }
   }
-  EXPECT_LT(PeakRssKib() - before, 64 * 1024) << "KiB of peak RSS grown";
+  EXPECT_LT(testing::PeakRssKib() - before, 64 * 1024) << "KiB of peak RSS grown";
 }
 
 TEST(ReadLimitsTest, PngAtTheLimitsReadsAndTheWritersRefuseBeyond) {

@@ -84,4 +84,10 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, std::chrono::seco
   return result;
 }
 
+long PeakRssKib() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss;
+}
+
 }  // namespace clutterseg::testing

@@ -19,4 +19,7 @@ struct ProcessResult {
 /// output and waits at most `timeout` (then kills it and sets timed_out).
 ProcessResult RunProcess(const std::vector<std::string>& argv, std::chrono::seconds timeout);
 
+/// This process's peak resident set size so far, KiB (getrusage's ru_maxrss).
+long PeakRssKib();
+
 }  // namespace clutterseg::testing
