@@ -16,7 +16,8 @@ target_link_libraries(clutterseg_bench_support PUBLIC clutterseg::core clutterse
 
 add_executable(clutterseg-bench ${_bench_dir}/clutterseg_bench.cc ${_bench_dir}/alloc_counter.cc)
 target_link_libraries(clutterseg-bench PRIVATE clutterseg_bench_support clutterseg::pipeline
-                      clutterseg::config CLI11::CLI11 Threads::Threads clutterseg_options)
+                      clutterseg::config CLI11::CLI11 nlohmann_json::nlohmann_json
+                      Threads::Threads clutterseg_options)
 if(CLUTTERSEG_SANITIZER)
   # The sanitizer runtime owns malloc/free: allocation counting is compiled out (reported n/a).
   target_compile_definitions(clutterseg-bench PRIVATE CLUTTERSEG_NO_ALLOC_COUNTER=1)

@@ -29,10 +29,10 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "clutterseg/config/segmenter_keys.h"
 #include "clutterseg/core/exit_codes.h"
-#include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/io/pcd.h"
@@ -43,6 +43,8 @@
 
 namespace fs = std::filesystem;
 using namespace clutterseg;
+// Keys in the order they are set, as the JSON outputs have always listed them.
+using Json = nlohmann::ordered_json;
 
 namespace {
 
@@ -110,58 +112,59 @@ void WriteTextFile(const std::string& path, const std::string& text) {
   }
 }
 
+// One line of compact JSON. A non-finite number is written as null; bytes of a string that are
+// not UTF-8 (a file name may hold any) as U+FFFD, so that the text is always valid JSON.
+std::string JsonLine(const Json& j) {
+  return j.dump(-1, ' ', false, Json::error_handler_t::replace);
+}
+
+Json Vec(const core::Vec3f& v) { return Json::array({v.x, v.y, v.z}); }
+
 // Every stage of pipeline::StageTable() and the total, as fields "<name><suffix>".
-void WriteStageTimes(const pipeline::StageTimes& t, const std::string& suffix,
-                     core::JsonWriter* j) {
+void AddStageTimes(const pipeline::StageTimes& t, const std::string& suffix, Json* j) {
   for (size_t i = 0; i < pipeline::kNumStages; ++i) {
-    j->Field(std::string(pipeline::StageTable()[i].name) + suffix, t.ms[i]);
+    (*j)[std::string(pipeline::StageTable()[i].name) + suffix] = t.ms[i];
   }
-  j->Field("total" + suffix, t.total_ms);
+  (*j)["total" + suffix] = t.total_ms;
 }
 
 void WriteObjectsJson(const std::string& path, const std::string& source,
                       const pipeline::SegmentationResult& r) {
-  core::JsonWriter j;
-  j.BeginObject();
-  j.Field("source", source);
-  j.Field("width", r.width).Field("height", r.height);
-  j.Field("num_valid_points", r.num_valid_points).Field("num_supervoxels", r.num_supervoxels);
-  j.Key("planes").BeginArray();
+  Json planes = Json::array();
   for (const pipeline::Plane& p : r.planes) {
-    j.BeginObject();
-    j.Field("id", p.id);
-    j.Array("normal", {p.normal.x, p.normal.y, p.normal.z});
-    j.Field("d", p.d).Field("num_points", p.num_points).Field("is_support", p.is_support);
-    j.EndObject();
+    planes.push_back({{"id", p.id},
+                      {"normal", Vec(p.normal)},
+                      {"d", p.d},
+                      {"num_points", p.num_points},
+                      {"is_support", p.is_support}});
   }
-  j.EndArray();
-  j.Key("objects").BeginArray();
+  Json objects = Json::array();
   for (const pipeline::Object& o : r.objects) {
-    j.BeginObject();
-    j.Field("id", o.id).Field("num_points", o.num_points);
-    j.Array("centroid", {o.centroid.x, o.centroid.y, o.centroid.z});
-    j.Array("aabb_min", {o.aabb_min.x, o.aabb_min.y, o.aabb_min.z});
-    j.Array("aabb_max", {o.aabb_max.x, o.aabb_max.y, o.aabb_max.z});
-    j.Array("obb_center", {o.obb_center.x, o.obb_center.y, o.obb_center.z});
-    j.Key("obb_axes").BeginArray();
-    for (const core::Vec3f& a : o.obb_axes) {
-      j.BeginArray().Value(a.x).Value(a.y).Value(a.z).EndArray();
-    }
-    j.EndArray();
-    j.Array("obb_extents", {o.obb_extents.x, o.obb_extents.y, o.obb_extents.z});
-    j.Field("support_plane_id", o.support_plane_id);
-    j.Array("mean_color", {double(o.mean_color.r), double(o.mean_color.g), double(o.mean_color.b)});
-    j.Field("confidence", o.confidence);
-    j.Array("pixel_bbox", {double(o.pixel_min_u), double(o.pixel_min_v), double(o.pixel_max_u),
-                           double(o.pixel_max_v)});
-    j.EndObject();
+    objects.push_back(
+        {{"id", o.id},
+         {"num_points", o.num_points},
+         {"centroid", Vec(o.centroid)},
+         {"aabb_min", Vec(o.aabb_min)},
+         {"aabb_max", Vec(o.aabb_max)},
+         {"obb_center", Vec(o.obb_center)},
+         {"obb_axes", {Vec(o.obb_axes[0]), Vec(o.obb_axes[1]), Vec(o.obb_axes[2])}},
+         {"obb_extents", Vec(o.obb_extents)},
+         {"support_plane_id", o.support_plane_id},
+         {"mean_color", {o.mean_color.r, o.mean_color.g, o.mean_color.b}},
+         {"confidence", o.confidence},
+         {"pixel_bbox", {o.pixel_min_u, o.pixel_min_v, o.pixel_max_u, o.pixel_max_v}}});
   }
-  j.EndArray();
-  j.Key("times_ms").BeginObject();
-  WriteStageTimes(r.times, "", &j);
-  j.EndObject();
-  j.EndObject();
-  WriteTextFile(path, j.str() + "\n");
+  Json times = Json::object();
+  AddStageTimes(r.times, "", &times);
+  const Json j = {{"source", source},
+                  {"width", r.width},
+                  {"height", r.height},
+                  {"num_valid_points", r.num_valid_points},
+                  {"num_supervoxels", r.num_supervoxels},
+                  {"planes", std::move(planes)},
+                  {"objects", std::move(objects)},
+                  {"times_ms", std::move(times)}};
+  WriteTextFile(path, JsonLine(j) + "\n");
 }
 
 bool IsPng(const fs::path& p) { return p.extension() == ".png" || p.extension() == ".PNG"; }
@@ -450,12 +453,10 @@ int main(int argc, char** argv) {
       }
       throw;
     }
-    core::JsonWriter j;
-    j.BeginObject().Field("file", job.in.filename().string());
-    WriteStageTimes(result.times, "_ms", &j);
-    j.Field("objects", static_cast<uint64_t>(result.objects.size()));
-    j.EndObject();
-    b.times_line = j.str();
+    Json j = {{"file", job.in.filename().string()}};
+    AddStageTimes(result.times, "_ms", &j);
+    j["objects"] = result.objects.size();
+    b.times_line = JsonLine(j);
     char line[512];
     std::snprintf(line, sizeof(line), "%s: %zu objects, %u supervoxels, %.1f ms",
                   job.in.filename().c_str(), result.objects.size(), result.num_supervoxels,
@@ -524,18 +525,19 @@ int main(int argc, char** argv) {
                  "segmenter.points\n";
   }
 
-  core::JsonWriter j;
-  j.BeginObject().Field("frames", static_cast<uint64_t>(jobs.size()));
-  j.Field("failed", failures).Field("empty", empty_frames);
-  j.Field("objects", static_cast<uint64_t>(total_objects));
   // mean_ms: segmentation time of one frame (latency); wall_ms_per_frame: elapsed time of the
   // whole run, loading and writing included, divided by the frames (throughput).
-  j.Field("mean_ms", jobs.size() == static_cast<size_t>(failures)
-                         ? 0.0
-                         : total_ms / static_cast<double>(jobs.size() - failures));
-  j.Field("wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size());
-  j.Field("threads", threads_used).Field("lanes", lanes).EndObject();
-  std::cout << j.str() << std::endl;
+  const Json j = {{"frames", jobs.size()},
+                  {"failed", failures},
+                  {"empty", empty_frames},
+                  {"objects", total_objects},
+                  {"mean_ms", jobs.size() == static_cast<size_t>(failures)
+                                  ? 0.0
+                                  : total_ms / static_cast<double>(jobs.size() - failures)},
+                  {"wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size()},
+                  {"threads", threads_used},
+                  {"lanes", lanes}};
+  std::cout << JsonLine(j) << std::endl;
   const bool summary_written = static_cast<bool>(std::cout);
   if (!summary_written) std::cerr << "clutterseg-segment: cannot write the summary to stdout\n";
   if (unreadable == static_cast<int>(jobs.size()) || all_empty) return kExitFailure;

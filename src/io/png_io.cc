@@ -2,6 +2,7 @@
 
 #include <png.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <csetjmp>
@@ -11,10 +12,13 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <unordered_set>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "clutterseg/core/assert.h"
-#include "clutterseg/io/internal/json.h"
 
 namespace clutterseg::io {
 namespace {
@@ -246,48 +250,112 @@ void WritePngFile(const std::string& path, int width, int height, int bit_depth,
   }
 }
 
-using internal::JsonValue;
+using Json = nlohmann::json;
 
-// The first of `keys` present in `obj`, which must be a number; nullptr when none is present.
-const JsonValue* FindNumber(const std::string& path, const JsonValue& obj,
-                            std::initializer_list<const char*> keys) {
-  for (const char* key : keys) {
-    const JsonValue* v = obj.Find(key);
-    if (v == nullptr) continue;
-    if (!v->is_number()) Fail(path, std::string("key '") + key + "' is not a number");
-    return v;
+// Deepest nesting of arrays and objects an intrinsics file may have.
+constexpr int kMaxJsonDepth = 64;
+
+// nlohmann's message without its "[json.exception.<kind>.<id>] " and "parse error at line L,
+// column C: " prefixes (the position is given as ours).
+std::string_view JsonReason(const Json::exception& e) {
+  std::string_view what = e.what();
+  if (const size_t p = what.find("] "); p != std::string_view::npos) what.remove_prefix(p + 2);
+  if (what.starts_with("parse error")) {
+    if (const size_t p = what.find(": "); p != std::string_view::npos) what.remove_prefix(p + 2);
   }
-  return nullptr;
+  return what;
 }
 
-int ToDimension(const std::string& path, const char* key, const JsonValue& v) {
-  if (!(v.number >= 1.0 && v.number <= 16384.0) || std::floor(v.number) != v.number) {
-    Fail(path, std::string("key '") + key + "' = " + std::to_string(v.number) +
+// "line L, column C" of the byte nlohmann's parse_error points at (1-based `byte`).
+std::string LineAndColumn(const std::string& text, size_t byte) {
+  const size_t at = std::min(byte > 0 ? byte - 1 : 0, text.size());
+  const size_t line = 1 + static_cast<size_t>(std::count(text.begin(), text.begin() + at, '\n'));
+  const size_t newline = at == 0 ? std::string::npos : text.rfind('\n', at - 1);
+  const size_t column = at - (newline == std::string::npos ? 0 : newline + 1) + 1;
+  return "line " + std::to_string(line) + ", column " + std::to_string(column);
+}
+
+// Parses `text`, the contents of `path`, as one JSON document (RFC 8259, UTF-8). The parser
+// callback adds what nlohmann leaves to us: a duplicate key in an object is refused (nlohmann
+// would keep the last one silently) and so is nesting deeper than kMaxJsonDepth.
+Json ParseJsonFile(const std::string& path, const std::string& text) {
+  std::vector<std::unordered_set<std::string>> keys;  // of each open array (unused) and object
+  auto check = [&](int depth, Json::parse_event_t event, Json& parsed) {
+    if (depth > kMaxJsonDepth) {
+      Fail(path,
+           "malformed JSON: nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
+    }
+    switch (event) {
+      case Json::parse_event_t::object_start:
+      case Json::parse_event_t::array_start:
+        keys.emplace_back();
+        break;
+      case Json::parse_event_t::object_end:
+      case Json::parse_event_t::array_end:
+        keys.pop_back();
+        break;
+      case Json::parse_event_t::key: {
+        const std::string& key = parsed.get_ref<const std::string&>();
+        if (!keys.back().insert(key).second) {
+          Fail(path, "malformed JSON: duplicate key \"" + key + "\"");
+        }
+        break;
+      }
+      case Json::parse_event_t::value:
+        break;
+    }
+    return true;
+  };
+  try {
+    return Json::parse(text, check);
+  } catch (const Json::parse_error& e) {
+    Fail(path,
+         "malformed JSON: " + LineAndColumn(text, e.byte) + ": " + std::string(JsonReason(e)));
+  } catch (const Json::out_of_range& e) {  // a number beyond the range of double
+    Fail(path, "malformed JSON: number out of range: " + std::string(JsonReason(e)));
+  }
+}
+
+// The first of `keys` present in `obj`, which must be a number; nullopt when none is present.
+std::optional<double> FindNumber(const std::string& path, const Json& obj,
+                                 std::initializer_list<const char*> keys) {
+  for (const char* key : keys) {
+    const auto it = obj.find(key);
+    if (it == obj.end()) continue;
+    if (!it->is_number()) Fail(path, std::string("key '") + key + "' is not a number");
+    return it->get<double>();
+  }
+  return std::nullopt;
+}
+
+int ToDimension(const std::string& path, const char* key, double v) {
+  if (!(v >= 1.0 && v <= 16384.0) || std::floor(v) != v) {
+    Fail(path, std::string("key '") + key + "' = " + std::to_string(v) +
                    " is not an image size in 1..16384");
   }
-  return static_cast<int>(v.number);
+  return static_cast<int>(v);
 }
 
 // Reads a 3x3 camera matrix given as 9 numbers (row- or column-major) or as 3 rows.
-void ReadCameraMatrix(const std::string& path, const char* key, const JsonValue& m,
+void ReadCameraMatrix(const std::string& path, const char* key, const Json& m,
                       core::CameraIntrinsics* k) {
   double a[9];
   bool nested = false;
-  if (m.is_array() && m.values.size() == 9) {
+  if (m.is_array() && m.size() == 9) {
     for (int i = 0; i < 9; ++i) {
-      if (!m.values[i].is_number()) Fail(path, std::string("'") + key + "' has a non-number");
-      a[i] = m.values[i].number;
+      if (!m[i].is_number()) Fail(path, std::string("'") + key + "' has a non-number");
+      a[i] = m[i].get<double>();
     }
-  } else if (m.is_array() && m.values.size() == 3) {
+  } else if (m.is_array() && m.size() == 3) {
     nested = true;
     for (int r = 0; r < 3; ++r) {
-      const JsonValue& row = m.values[r];
-      if (!row.is_array() || row.values.size() != 3) {
+      const Json& row = m[r];
+      if (!row.is_array() || row.size() != 3) {
         Fail(path, std::string("'") + key + "' must be 9 numbers or 3 rows of 3");
       }
       for (int c = 0; c < 3; ++c) {
-        if (!row.values[c].is_number()) Fail(path, std::string("'") + key + "' has a non-number");
-        a[3 * r + c] = row.values[c].number;
+        if (!row[c].is_number()) Fail(path, std::string("'") + key + "' has a non-number");
+        a[3 * r + c] = row[c].get<double>();
       }
     }
   } else {
@@ -389,47 +457,42 @@ core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path) {
   if (std::ferror(f.get()) != 0) Fail(path, "read error");
   if (text.empty()) Fail(path, "empty file");
 
-  JsonValue doc;
-  try {
-    doc = internal::ParseJson(text);
-  } catch (const std::runtime_error& e) {
-    Fail(path, std::string("malformed JSON: ") + e.what());
-  }
+  const Json doc = ParseJsonFile(path, text);
   if (!doc.is_object()) Fail(path, "top level is not a JSON object");
-  const JsonValue* obj = &doc;
-  if (const JsonValue* camera = doc.Find("camera"); camera != nullptr) {
+  const Json* obj = &doc;
+  if (const auto camera = doc.find("camera"); camera != doc.end()) {
     if (!camera->is_object()) Fail(path, "key 'camera' is not an object");
-    obj = camera;
+    obj = &*camera;
   }
 
   core::CameraIntrinsics k;
   const char* matrix_key = nullptr;
   for (const char* key : {"intrinsic_matrix", "K"}) {
-    if (obj->Find(key) != nullptr) {
+    if (obj->contains(key)) {
       matrix_key = key;
       break;
     }
   }
-  const JsonValue* fx = FindNumber(path, *obj, {"fx"});
-  const JsonValue* fy = FindNumber(path, *obj, {"fy"});
-  const JsonValue* cx = FindNumber(path, *obj, {"cx", "x_offset", "ppx"});
-  const JsonValue* cy = FindNumber(path, *obj, {"cy", "y_offset", "ppy"});
-  if (matrix_key != nullptr && fx == nullptr) {
-    ReadCameraMatrix(path, matrix_key, *obj->Find(matrix_key), &k);
+  const std::optional<double> fx = FindNumber(path, *obj, {"fx"});
+  const std::optional<double> fy = FindNumber(path, *obj, {"fy"});
+  const std::optional<double> cx = FindNumber(path, *obj, {"cx", "x_offset", "ppx"});
+  const std::optional<double> cy = FindNumber(path, *obj, {"cy", "y_offset", "ppy"});
+  if (matrix_key != nullptr && !fx) {
+    ReadCameraMatrix(path, matrix_key, obj->at(matrix_key), &k);
   } else {
-    if (fx == nullptr) Fail(path, "missing key 'fx'");
-    if (fy == nullptr) Fail(path, "missing key 'fy'");
-    if (cx == nullptr) Fail(path, "missing key 'cx'");
-    if (cy == nullptr) Fail(path, "missing key 'cy'");
-    k.fx = fx->number;
-    k.fy = fy->number;
-    k.cx = cx->number;
-    k.cy = cy->number;
+    if (!fx) Fail(path, "missing key 'fx'");
+    if (!fy) Fail(path, "missing key 'fy'");
+    if (!cx) Fail(path, "missing key 'cx'");
+    if (!cy) Fail(path, "missing key 'cy'");
+    k.fx = *fx;
+    k.fy = *fy;
+    k.cx = *cx;
+    k.cy = *cy;
   }
-  if (const JsonValue* w = FindNumber(path, *obj, {"width", "img_width", "image_width"})) {
+  if (const auto w = FindNumber(path, *obj, {"width", "img_width", "image_width"})) {
     k.width = ToDimension(path, "width", *w);
   }
-  if (const JsonValue* h = FindNumber(path, *obj, {"height", "img_height", "image_height"})) {
+  if (const auto h = FindNumber(path, *obj, {"height", "img_height", "image_height"})) {
     k.height = ToDimension(path, "height", *h);
   }
   try {

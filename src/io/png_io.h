@@ -43,7 +43,8 @@ void WriteDepthPng(const std::string& path, const core::DepthImage& image,
 /// height (640x480 when absent). Also accepted: the members of a nested {"camera": {...}};
 /// cx/cy spelled x_offset/y_offset or ppx/ppy and width/height spelled img_width/img_height
 /// (UCN); a 3x3 camera matrix under "intrinsic_matrix" or "K", as 9 numbers row- or
-/// column-major (Open3D/TUM) or as 3 rows. Files over 1 MiB are refused.
+/// column-major (Open3D/TUM) or as 3 rows. Files over 1 MiB, JSON that is not RFC 8259 (UTF-8,
+/// no comments), a key twice in one object and nesting deeper than 64 levels are refused.
 /// @throws std::runtime_error naming the file and the key or JSON position at fault, also
 /// when the values fail CameraIntrinsics::ValidateOrThrow().
 core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path);

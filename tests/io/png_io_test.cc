@@ -192,12 +192,19 @@ TEST(IntrinsicsJsonTest, FlatNestedAndMatrixForms) {
   EXPECT_EQ(k.cy, 200.0);
 }
 
+// Writes `text` to dir/name and expects ReadIntrinsicsJson to refuse it, naming the file and
+// saying `what`.
+void ExpectRefused(const std::filesystem::path& dir, const std::string& name,
+                   const std::string& text, const std::string& what) {
+  const std::string path = (dir / name).string();
+  WriteText(path, text);
+  ExpectFailure([&] { ReadIntrinsicsJson(path); }, path, what);
+}
+
 TEST(IntrinsicsJsonTest, ErrorsNameFileAndKey) {
   const auto dir = testing::ScratchDir("json_errors");
   auto expect = [&](const std::string& name, const std::string& text, const std::string& what) {
-    const std::string path = (dir / name).string();
-    WriteText(path, text);
-    ExpectFailure([&] { ReadIntrinsicsJson(path); }, path, what);
+    ExpectRefused(dir, name, text, what);
   };
   expect("empty.json", "", "empty file");
   expect("missing_fx.json", R"({"fy": 1, "cx": 2, "cy": 3})", "missing key 'fx'");
@@ -208,13 +215,104 @@ TEST(IntrinsicsJsonTest, ErrorsNameFileAndKey) {
          "key 'width'");
   expect("trailing_comma.json", R"({"fx": 5, "fy": 1,})", "line 1, column 19");
   expect("unterminated.json", "{\"fx\": 5,\n \"fy", "line 2");
-  expect("garbage.json", "{\"fx\": 5} trailing", "unexpected content after the JSON value");
+  expect("garbage.json", "{\"fx\": 5} trailing", "line 1, column 13: ");
+  expect("garbage2.json", "{\"fx\": 5} {}", "expected end of input");
   expect("duplicate.json", R"({"fx": 5, "fx": 6})", "duplicate key");
   expect("deep.json", std::string(100, '[') + std::string(100, ']'), "nesting deeper");
   expect("array.json", "[1, 2]", "top level is not a JSON object");
   expect("matrix.json", R"({"K": [1, 2, 3, 4, 5, 6, 7, 8, 9]})", "not a pinhole camera matrix");
   expect("number.json", R"({"fx": 01})", "line 1");
   expect("huge.json", R"({"fx": 1e999})", "number out of range");
+}
+
+// Valid intrinsics (the default Kinect's) in the members of a JSON object.
+constexpr const char* kValidMembers = R"("fx": 525, "fy": 525, "cx": 319.5, "cy": 239.5)";
+
+TEST(IntrinsicsJsonTest, DecodesEscapesAndEveryNumberForm) {
+  const auto dir = testing::ScratchDir("json_values");
+  const std::string path = (dir / "values.json").string();
+  // Keys spelled with escapes; the other members hold every kind of value.
+  WriteText(
+      path,
+      " {\"f\\u0078\": 5.25e2, \"fy\": 52500E-2, \"c\\u0078\": 319.5, \"\\u0063y\": 2395e-1,"
+      " \"name\": \"q\\\"\\\\\\/\\b\\f\\n\\r\\t\\u0041\\u00e9\\ud83d\\ude00 \xc3\xa9\","
+      " \"extra\": {\"a\": [1, -2.5e-3, 0, 1E+2, -0], \"c\": null, \"d\": true, \"e\": false},"
+      " \"big\": 18446744073709551616, \"neg\": -9223372036854775808}\r\n\t");
+  const core::CameraIntrinsics k = ReadIntrinsicsJson(path);
+  EXPECT_EQ(k.fx, 525.0);
+  EXPECT_EQ(k.fy, 525.0);
+  EXPECT_EQ(k.cx, 319.5);
+  EXPECT_EQ(k.cy, 239.5);
+}
+
+TEST(IntrinsicsJsonTest, RefusesMalformedJson) {
+  const auto dir = testing::ScratchDir("json_malformed");
+  int n = 0;
+  for (const std::string bad :
+       {"{",           "{\"a\" 1}",   "{\"a\": 1,}",   "[1 2]",
+        "[01]",        "[1.]",        "[.5]",          "[1e]",
+        "[-]",         "\"abc",       "\"a\tb\"",      "\"\\x\"",
+        "\"\\ud800\"", "\"\\udc00\"", "\"\\u12g4\"",   "tru",
+        "nul",         "{} {}",       "{1: 2}",        "{'fx': 1}",
+        "[NaN]",       "[Infinity]",  "[+1]",          "[0x10]",
+        "\"\xff\"",    "\"\xc3\"",    "{} // comment", "/* comment */ {}"}) {
+    ExpectRefused(dir, "bad" + std::to_string(n++) + ".json", bad,
+                  "malformed JSON: line 1, column ");
+  }
+  ExpectRefused(dir, "overflow.json", "{" + std::string(kValidMembers) + ", \"x\": [1e400]}",
+                "malformed JSON: number out of range");
+}
+
+TEST(IntrinsicsJsonTest, SyntaxErrorsGiveLineAndColumn) {
+  const auto dir = testing::ScratchDir("json_position");
+  ExpectRefused(dir, "lines.json", "{\n  \"a\": [1,\n  ]\n}", "malformed JSON: line 3, column 3: ");
+  // The position is that of the last character of the token at fault ("cx" here).
+  ExpectRefused(dir, "crlf.json", "{\"fx\": 1,\r\n\r\n   \"fy\": 2 \"cx\": 3}",
+                "malformed JSON: line 3, column 15: ");
+}
+
+TEST(IntrinsicsJsonTest, RefusesDuplicateKeysInEveryObject) {
+  const auto dir = testing::ScratchDir("json_duplicates");
+  auto expect = [&](const std::string& name, const std::string& text, const std::string& what) {
+    ExpectRefused(dir, name, text, what);
+  };
+  const std::string valid = kValidMembers;
+  expect("top.json", "{" + valid + ", \"cy\": 240}", "malformed JSON: duplicate key \"cy\"");
+  expect("camera.json", "{\"camera\": {" + valid + ", \"fx\": 1}}", "duplicate key \"fx\"");
+  expect("ignored.json", "{" + valid + ", \"extra\": [{\"a\": 1, \"a\": 1}]}",
+         "duplicate key \"a\"");
+  expect("escaped.json", "{" + valid + ", \"c\\u0078\": 1}", "duplicate key \"cx\"");
+
+  // The same key in different objects is no duplicate.
+  const std::string path = (dir / "siblings.json").string();
+  WriteText(path, "{\"fx\": 1, \"camera\": {" + valid +
+                      "}, \"extra\": [{\"fx\": 2}, {\"fx\": 3, \"camera\": {\"fx\": 4}}]}");
+  EXPECT_EQ(ReadIntrinsicsJson(path).fx, 525.0);
+}
+
+TEST(IntrinsicsJsonTest, LimitsNestingTo64Levels) {
+  const auto dir = testing::ScratchDir("json_depth");
+  // Arrays nested `levels` deep inside the top-level object.
+  auto nested = [&](int levels) {
+    return "{" + std::string(kValidMembers) + ", \"x\": " + std::string(levels, '[') +
+           std::string(levels, ']') + "}";
+  };
+  const std::string path = (dir / "depth64.json").string();
+  WriteText(path, nested(64));
+  EXPECT_EQ(ReadIntrinsicsJson(path).fx, 525.0);
+  ExpectRefused(dir, "depth65.json", nested(65), "malformed JSON: nesting deeper than 64 levels");
+  // Deep enough to exhaust a recursive parser's stack.
+  ExpectRefused(dir, "deepest.json", std::string(500000, '['), "nesting deeper than 64 levels");
+}
+
+TEST(IntrinsicsJsonTest, RefusesFilesOver1MiB) {
+  const auto dir = testing::ScratchDir("json_size");
+  const std::string members = "{" + std::string(kValidMembers) + "}";
+  const std::string path = (dir / "padded.json").string();
+  WriteText(path, members + std::string((1u << 20) - members.size(), ' '));
+  EXPECT_EQ(ReadIntrinsicsJson(path).fx, 525.0) << "exactly 1 MiB is read";
+  ExpectRefused(dir, "over.json", members + std::string((1u << 20) - members.size() + 1, ' '),
+                "larger than 1048576 bytes");
 }
 
 TEST(IntrinsicsJsonTest, ReadsTumAndUcnFiles) {

@@ -3,6 +3,7 @@
 // full tmpfs, /dev/full), goes on past a bad input and says when no frame had a valid point.
 // Exit codes: 5 (kExitIncomplete) finished with failed inputs or outputs, 1 nothing usable.
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdint>
 #include <cstdio>
@@ -14,11 +15,13 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sys/mount.h>
 
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/io/pcd.h"
 #include "clutterseg/io/png_io.h"
+#include "clutterseg/pipeline/stage_times.h"
 #include "tests/testing/run_process.h"
 #include "tests/testing/test_data.h"
 
@@ -233,6 +236,74 @@ TEST(SegmentTool, BadInputInADirectoryIsCountedAndTheOthersStillWritten) {
   EXPECT_FALSE(fs::exists(dir / "out" / "f1.pcd"));
   EXPECT_TRUE(fs::exists(dir / "out" / "f2.pcd"));
   EXPECT_EQ(io::ReadPcd((dir / "out" / "f2.pcd").string()).size(), size_t{kW} * kH);
+}
+
+std::vector<std::string> Keys(const nlohmann::ordered_json& object) {
+  std::vector<std::string> keys;
+  for (const auto& [key, value] : object.items()) keys.push_back(key);
+  return keys;
+}
+
+// The stage names of pipeline::StageTable() and "total", each followed by `suffix`.
+std::vector<std::string> StageKeys(const std::string& suffix) {
+  std::vector<std::string> keys;
+  for (const StageInfo& info : StageTable()) keys.push_back(std::string(info.name) + suffix);
+  keys.push_back("total" + suffix);
+  return keys;
+}
+
+// --json, --times and the summary on stdout are JSON with their keys in their order, also for
+// an input whose name is not UTF-8 (a byte that is not is written as U+FFFD).
+TEST(SegmentTool, OutputsAreJsonWithTheirKeys) {
+  using Json = nlohmann::ordered_json;
+  using Names = std::vector<std::string>;
+  const fs::path dir = testing::ScratchDir("segment_tool_json");
+  const fs::path in = dir / "in\xff.pcd";
+  WriteTabletopPcd(in, 0);
+  const ProcessResult r =
+      Segment({in.string(), (dir / "out.pcd").string(), "--json", (dir / "objects.json").string(),
+               "--times", (dir / "times.jsonl").string(), "--force"});
+  ASSERT_EQ(r.exit_code, 0) << r.err;
+
+  const Json objects = Json::parse(ReadText(dir / "objects.json"));
+  EXPECT_EQ(Keys(objects), (Names{"source", "width", "height", "num_valid_points",
+                                  "num_supervoxels", "planes", "objects", "times_ms"}));
+  EXPECT_EQ(objects["source"], (dir / "in\xef\xbf\xbd.pcd").string());
+  EXPECT_EQ(objects["width"], kW);
+  EXPECT_EQ(objects["height"], kH);
+  ASSERT_FALSE(objects["planes"].empty());
+  EXPECT_EQ(Keys(objects["planes"][0]), (Names{"id", "normal", "d", "num_points", "is_support"}));
+  ASSERT_EQ(objects["objects"].size(), 1u) << "the box";
+  const Json& box = objects["objects"][0];
+  EXPECT_EQ(Keys(box),
+            (Names{"id", "num_points", "centroid", "aabb_min", "aabb_max", "obb_center", "obb_axes",
+                   "obb_extents", "support_plane_id", "mean_color", "confidence", "pixel_bbox"}));
+  EXPECT_EQ(box["id"], 1);
+  EXPECT_NEAR(box["centroid"][2].get<double>(), 0.85, 0.01);
+  ASSERT_EQ(box["obb_axes"].size(), 3u);
+  EXPECT_EQ(box["obb_axes"][2].size(), 3u);
+  EXPECT_EQ(box["pixel_bbox"].size(), 4u);
+  EXPECT_TRUE(box["pixel_bbox"][0].is_number_integer());
+  EXPECT_EQ(Keys(objects["times_ms"]), StageKeys(""));
+
+  const std::string times_text = ReadText(dir / "times.jsonl");
+  ASSERT_EQ(std::count(times_text.begin(), times_text.end(), '\n'), 1) << "one line per frame";
+  const Json times = Json::parse(times_text);
+  Names times_keys = StageKeys("_ms");
+  times_keys.insert(times_keys.begin(), "file");
+  times_keys.push_back("objects");
+  EXPECT_EQ(Keys(times), times_keys);
+  EXPECT_EQ(times["file"], "in\xef\xbf\xbd.pcd");
+  EXPECT_EQ(times["total_ms"], objects["times_ms"]["total"]);
+  EXPECT_EQ(times["objects"], 1);
+
+  const Json summary = Json::parse(r.out);
+  EXPECT_EQ(Keys(summary), (Names{"frames", "failed", "empty", "objects", "mean_ms",
+                                  "wall_ms_per_frame", "threads", "lanes"}));
+  EXPECT_EQ(summary["frames"], 1);
+  EXPECT_EQ(summary["failed"], 0);
+  EXPECT_EQ(summary["objects"], 1);
+  EXPECT_EQ(summary["mean_ms"], times["total_ms"]);
 }
 
 // A 16000 x 16000 declaration (about 530 kB of file) made the tool allocate 7.5 GB and then

@@ -20,11 +20,11 @@
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <sys/resource.h>
 
 #include "clutterseg/config/segmenter_keys.h"
 #include "clutterseg/core/exit_codes.h"
-#include "clutterseg/core/json_writer.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/segmenter.h"
@@ -325,10 +325,11 @@ PclResult RunPcl(const FrameSet& frames, const pcl_baseline::BaselineParams& par
 // ---------------------------------------------------------------------------------------
 // Output.
 
-void WriteSummary(core::JsonWriter* w, std::string_view key, const Summary& s) {
-  w->Key(key).BeginObject();
-  w->Field("mean", s.mean).Field("p50", s.p50).Field("p90", s.p90).Field("p99", s.p99);
-  w->Field("max", s.max).EndObject();
+// Keys in the order they are set, as the summary has always listed them.
+using Json = nlohmann::ordered_json;
+
+Json SummaryJson(const Summary& s) {
+  return {{"mean", s.mean}, {"p50", s.p50}, {"p90", s.p90}, {"p99", s.p99}, {"max", s.max}};
 }
 
 void PrintStageTable(const ConfigResult& r, const char* what = "") {
@@ -606,84 +607,90 @@ int Run(int argc, char** argv) {
 #endif
   const std::string load_end = LoadAverage();
 
-  core::JsonWriter w;
-  w.BeginObject();
-  w.Field("tool", "clutterseg-bench").Field("source", frames.source);
-  w.Field("frames", static_cast<uint64_t>(frames.size())).Field("repeat", opt.repeat);
-  w.Field("warmup", opt.warmup).Field("threads", threads);
-  w.Key("overrides").BeginArray();
-  for (const std::string& o : opt.overrides) w.Value(o);
-  w.EndArray();
-  w.Field("load_avg_start", load_start).Field("load_avg_end", load_end);
-  w.Key("stage_table").BeginArray();
+  Json stage_table = Json::array();
   for (const pipeline::StageInfo& info : pipeline::StageTable()) {
-    w.BeginObject().Field("name", std::string(info.name));
-    w.Field("description", std::string(info.description)).EndObject();
+    stage_table.push_back(
+        {{"name", std::string(info.name)}, {"description", std::string(info.description)}});
   }
-  w.EndArray();
-  w.Field("supervoxels_mean", results[0].supervoxels_mean);
-  w.Field("objects_mean", results[0].objects_mean);
-  auto write_config = [&](const ConfigResult& r) {
+  auto config_json = [&](const ConfigResult& r) {
     const double nf = static_cast<double>(r.frames);
-    w.BeginObject();
-    w.Field("name", r.config.name).Field("lanes", r.config.lanes);
-    w.Field("pool_threads", r.config.pool_threads);
-    w.Field("fps", r.fps).Field("cpu_ms_per_frame", r.cpu_ms_per_frame);
-    w.Field("cpu_bound_fps", 1000.0 * threads / r.cpu_ms_per_frame);
-    w.Field("alloc_counting_available", AllocCountingAvailable());
+    Json c = {{"name", r.config.name},
+              {"lanes", r.config.lanes},
+              {"pool_threads", r.config.pool_threads},
+              {"fps", r.fps},
+              {"cpu_ms_per_frame", r.cpu_ms_per_frame},
+              {"cpu_bound_fps", 1000.0 * threads / r.cpu_ms_per_frame},
+              {"alloc_counting_available", AllocCountingAvailable()}};
     if (AllocCountingAvailable()) {
-      w.Field("news_per_frame", static_cast<double>(r.allocs.news) / nf);
-      w.Field("mallocs_per_frame", static_cast<double>(r.allocs.mallocs) / nf);
-      w.Field("alloc_bytes_per_frame", static_cast<double>(r.allocs.bytes) / nf);
+      c["news_per_frame"] = static_cast<double>(r.allocs.news) / nf;
+      c["mallocs_per_frame"] = static_cast<double>(r.allocs.mallocs) / nf;
+      c["alloc_bytes_per_frame"] = static_cast<double>(r.allocs.bytes) / nf;
     }
-    w.Field("rss_before_mb", r.rss_before_mb).Field("peak_rss_mb", r.peak_rss_mb);
-    w.Field("peak_rss_above_before_mb", r.peak_rss_mb - r.rss_before_mb);
-    WriteSummary(&w, "latency_ms", r.latency);
-    w.Key("stages_ms").BeginObject();
-    for (size_t i = 0; i < Stages().size(); ++i) WriteSummary(&w, Stages()[i].name, r.stages[i]);
-    w.EndObject();
-    w.EndObject();
+    c["rss_before_mb"] = r.rss_before_mb;
+    c["peak_rss_mb"] = r.peak_rss_mb;
+    c["peak_rss_above_before_mb"] = r.peak_rss_mb - r.rss_before_mb;
+    c["latency_ms"] = SummaryJson(r.latency);
+    Json stages = Json::object();
+    for (size_t i = 0; i < Stages().size(); ++i) {
+      stages[Stages()[i].name] = SummaryJson(r.stages[i]);
+    }
+    c["stages_ms"] = std::move(stages);
+    return c;
   };
-  w.Key("configs").BeginArray();
-  for (const ConfigResult& r : results) write_config(r);
-  w.EndArray();
+  Json config_results = Json::array();
+  for (const ConfigResult& r : results) config_results.push_back(config_json(r));
+  // A non-finite number (a rate over no time) is written as null.
+  Json w = {{"tool", "clutterseg-bench"},
+            {"source", frames.source},
+            {"frames", frames.size()},
+            {"repeat", opt.repeat},
+            {"warmup", opt.warmup},
+            {"threads", threads},
+            {"overrides", opt.overrides},
+            {"load_avg_start", load_start},
+            {"load_avg_end", load_end},
+            {"stage_table", std::move(stage_table)},
+            {"supervoxels_mean", results[0].supervoxels_mean},
+            {"objects_mean", results[0].objects_mean},
+            {"configs", std::move(config_results)}};
   if (!unorganized.empty()) {
     // The same frames shuffled into unorganized clouds (ShuffledUnorganized), 1-lane configs.
-    w.Key("unorganized_configs").BeginArray();
-    for (const ConfigResult& r : unorganized) write_config(r);
-    w.EndArray();
+    Json unorganized_results = Json::array();
+    for (const ConfigResult& r : unorganized) unorganized_results.push_back(config_json(r));
+    w["unorganized_configs"] = std::move(unorganized_results);
   }
-  w.Field("best_config", results[best].config.name).Field("best_fps", results[best].fps);
-  w.Key("memory_mb").BeginObject();
-  w.Field("frames_heap", frames_mb).Field("rss_after_load", after_load.vm_rss_mb);
-  w.Field("peak_rss_segmenter", after_ours.vm_hwm_mb).Field("peak_reset", hwm_reset);
-  w.Field("peak_above_loaded", after_ours.vm_hwm_mb - after_load.vm_rss_mb);
-  w.Field("rss_end", after_ours.vm_rss_mb).Field("ru_maxrss", maxrss_ours);
-  w.EndObject();
+  w["best_config"] = results[best].config.name;
+  w["best_fps"] = results[best].fps;
+  w["memory_mb"] = {{"frames_heap", frames_mb},
+                    {"rss_after_load", after_load.vm_rss_mb},
+                    {"peak_rss_segmenter", after_ours.vm_hwm_mb},
+                    {"peak_reset", hwm_reset},
+                    {"peak_above_loaded", after_ours.vm_hwm_mb - after_load.vm_rss_mb},
+                    {"rss_end", after_ours.vm_rss_mb},
+                    {"ru_maxrss", maxrss_ours}};
 #if CLUTTERSEG_BENCH_HAVE_PCL
   if (opt.pcl) {
-    w.Key("pcl").BeginObject();
-    w.Field("single_camera_transform", pcl_params.use_single_camera_transform);
-    w.Field("extended_convexity", pcl_params.use_extended_convexity);
-    WriteSummary(&w, "supervoxels_ms", pcl.supervoxels);
-    WriteSummary(&w, "lccp_ms", pcl.lccp);
-    WriteSummary(&w, "total_ms", pcl.total);
-    w.Field("supervoxels_mean", pcl.supervoxels_mean_count);
-    w.Field("segments_mean", pcl.segments_mean).Field("peak_rss_mb", pcl.peak_rss_mb);
     const double ours_pool = results[0].stages.back().mean;
     const double ours_1t = results.size() > 1 ? results[1].stages.back().mean : ours_pool;
-    w.Field("ratio_vs_pool", pcl.total.mean / ours_pool);
-    w.Field("ratio_vs_1thread", pcl.total.mean / ours_1t);
-    w.Field("ratio_fps_best", results[best].fps * pcl.total.mean / 1000.0);
     const double ours_cpu =
         results.size() > 1 ? results[1].cpu_ms_per_frame : results[0].cpu_ms_per_frame;
-    w.Field("cpu_ms_per_frame", pcl.cpu_ms_per_frame);
-    w.Field("ratio_cpu", pcl.cpu_ms_per_frame / ours_cpu);
-    w.EndObject();
+    w["pcl"] = {{"single_camera_transform", pcl_params.use_single_camera_transform},
+                {"extended_convexity", pcl_params.use_extended_convexity},
+                {"supervoxels_ms", SummaryJson(pcl.supervoxels)},
+                {"lccp_ms", SummaryJson(pcl.lccp)},
+                {"total_ms", SummaryJson(pcl.total)},
+                {"supervoxels_mean", pcl.supervoxels_mean_count},
+                {"segments_mean", pcl.segments_mean},
+                {"peak_rss_mb", pcl.peak_rss_mb},
+                {"ratio_vs_pool", pcl.total.mean / ours_pool},
+                {"ratio_vs_1thread", pcl.total.mean / ours_1t},
+                {"ratio_fps_best", results[best].fps * pcl.total.mean / 1000.0},
+                {"cpu_ms_per_frame", pcl.cpu_ms_per_frame},
+                {"ratio_cpu", pcl.cpu_ms_per_frame / ours_cpu}};
   }
 #endif
-  w.EndObject();
-  const std::string json = w.str();
+  // Bytes of a string that are not UTF-8 (a directory name may hold any) are written as U+FFFD.
+  const std::string json = w.dump(-1, ' ', false, Json::error_handler_t::replace);
   std::printf("%s\n", json.c_str());
   if (!opt.json_path.empty()) {
     std::ofstream out(opt.json_path, std::ios::trunc);
