@@ -128,7 +128,6 @@ std::vector<std::string> Undelivered(const DaemonStats& s, const std::string& lo
   count(s.publish_failures, "messages refused by the LCM transport");
   count(s.frames_publish_dropped, "frames dropped in front of a transport that fell behind");
   count(s.overlay_failures, "overlay PNGs not written");
-  count(s.overlays_dropped, "overlays dropped in front of a disk that fell behind");
   if (!log_problem.empty()) missing.push_back(log_problem);
   return missing;
 }

@@ -34,9 +34,11 @@ bool IsNetworkBus(const std::string& url);
 void WaitUntilDone(const SignalWatcher& signals, bool network_transport, SystemdNotifier* notifier,
                    Daemon* daemon);
 
-/// What the run did not deliver, one phrase each (refused publishes, frames dropped in front
-/// of a slow transport, overlays not written or dropped, `log_problem` when not empty); empty
-/// when every output is complete.
+/// What the run did not deliver, one phrase each (frames the source could not deliver,
+/// refused publishes, frames dropped in front of a slow transport, overlays that could not be
+/// written, `log_problem` when not empty); empty when every output is complete. Overlays the
+/// writer dropped for lack of CPU or disk bandwidth are like frames the frame queue drops:
+/// counted and reported (status_t, the summary line), not a failure.
 std::vector<std::string> Undelivered(const DaemonStats& s, const std::string& log_problem);
 
 /// The closing summary line: frame counts, failures and the run's latency percentiles.

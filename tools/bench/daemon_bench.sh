@@ -48,7 +48,7 @@ for oni in "$@"; do
       --lcm-url "file://$log?mode=w" --log-level warn > /dev/null 2>&1
     end=$(date +%s.%N)
     "$listen" --lcm-url "file://$log?speed=0" > "$tmp/listen.txt" 2>&1 || true
-    pngs=$(find "$tmp/png" -name '*.png' 2> /dev/null | wc -l)
+    pngs=$( (find "$tmp/png" -name '*.png' 2> /dev/null || true) | wc -l)
     python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" "$warmup" "$pngs" <<'PY'
 import re, sys
 name, mode, start, end, rss_kb, listen, warmup, pngs = sys.argv[1:]
