@@ -164,6 +164,8 @@ void Capture::Loop() {
           break;
       }
     }
+    next_skip_check_ = {};
+    LogSkips();  // the last skips, before the run's summary
   } catch (const std::exception& e) {
     SetState(DeviceState::kError);
     on_error_(std::string("capture failed: ") + e.what());
@@ -181,6 +183,10 @@ void Capture::Loop() {
 }
 
 void Capture::LogSkips() {
+  // A report copies the recent skips (strings): taken a few times a second, not per frame.
+  const auto now = Clock::now();
+  if (now < next_skip_check_) return;
+  next_skip_check_ = now + std::chrono::milliseconds(250);
   const core::SourceReport report = source_->report();
   if (report.frames_skipped() == skips_logged_) return;
   for (const core::SkippedFrame& skip : report.recent_skips) {

@@ -101,6 +101,7 @@ class Capture {
   std::atomic<uint64_t> captured_{0};
   std::atomic<uint64_t> reconnects_{0};
   uint64_t skips_logged_{0};  // serial of the last skipped frame logged (capture thread)
+  std::chrono::steady_clock::time_point next_skip_check_{};  // when LogSkips looks again
   std::atomic<int> state_{static_cast<int>(DeviceState::kStarting)};
   mutable std::mutex problem_mutex_;
   std::string last_problem_;
