@@ -411,6 +411,7 @@ struct OpenNI2Source::Impl {
   bool waiting_for_depth{false};
   Clock::time_point depth_wait_start{};
   Clock::time_point pace_t0{};
+  Clock::time_point pace_last_due{};  // when the frame paced last was due
 
   [[noreturn]] void Fail(const std::string& what) {
     const std::string msg = "OpenNI2 source '" + Name() + "': " + what;
@@ -971,14 +972,22 @@ struct OpenNI2Source::Impl {
       // time again) or jumps ahead by more than 2 s starts a new base.
       const auto now = Clock::now();
       const auto ts = static_cast<int64_t>(out_depth.getTimestamp());
-      if (!pace_base_set || ts < pace_last_ts) {
+      if (!pace_base_set) {
         pace_base_set = true;
         pace_ts0 = ts;
         pace_t0 = now;
+      } else if (ts < pace_last_ts) {
+        // The next pass starts one frame period after the last frame of this one was due, as
+        // a camera's next frame would (not at once: two frames back to back).
+        pace_ts0 = ts;
+        pace_t0 =
+            std::max(now, pace_last_due + std::chrono::microseconds(static_cast<int64_t>(
+                                              2.0 * pair_tolerance_us / options.replay_speed)));
       }
       pace_last_ts = ts;
       const auto due = pace_t0 + std::chrono::microseconds(static_cast<int64_t>(
                                      static_cast<double>(ts - pace_ts0) / options.replay_speed));
+      pace_last_due = due;
       if (due - now > std::chrono::seconds(2)) {
         pace_ts0 = ts;
         pace_t0 = now;
