@@ -274,7 +274,9 @@ struct Daemon::Impl {
     done_cv.notify_all();
   }
 
-  StatusCounters Counters() const {
+  // The counters of a status report; `report` is the source's (its copy costs strings: taken
+  // once per call by the caller).
+  StatusCounters Counters(const core::SourceReport& report) const {
     StatusCounters c;
     c.frames_captured = capture.captured();
     c.frames_processed = processed.load();
@@ -289,7 +291,6 @@ struct Daemon::Impl {
     }
     c.publish_failures = publisher.publish_failures();
     c.reconnect_attempts = capture.reconnect_attempts();
-    const core::SourceReport report = source->report();
     c.frames_not_delivered = report.frames_skipped();
     c.frames_expected = report.frames_in_source;
     c.queue_depth = static_cast<int32_t>(queue->size());
@@ -334,7 +335,7 @@ void Daemon::Start() {
   if (d.overlay) d.overlay->Start();
   d.status = std::make_unique<StatusReporter>(
       d.config.status, d.config.capture.camera_name, d.source_description,
-      [&d] { return d.Counters(); },
+      [&d] { return d.Counters(d.source->report()); },
       [&d](const clutterseg::status_t& s) { d.publisher.OfferStatus(s); });
   d.started = true;
   d.publisher.Start();
@@ -383,9 +384,9 @@ std::string Daemon::error() const {
 DaemonStats Daemon::stats() const {
   const Impl& d = *impl_;
   DaemonStats s;
-  static_cast<StatusCounters&>(s) = d.Counters();
-  s.param_reloads = d.reloads.load();
   s.source = d.source->report();
+  static_cast<StatusCounters&>(s) = d.Counters(s.source);
+  s.param_reloads = d.reloads.load();
   return s;
 }
 

@@ -90,11 +90,12 @@ LcmLogFileGuard::LcmLogFileGuard(const FileLogUrl& log) : log_(log) {
                              " (check the path, that its directory exists and is writable)");
   }
   struct stat st {};
-  if (fstat(fd_, &st) == 0 && S_ISCHR(st.st_mode) && st.st_rdev == makedev(1, 3)) {
+  const bool stat_ok = fstat(fd_, &st) == 0;
+  if (stat_ok && S_ISCHR(st.st_mode) && st.st_rdev == makedev(1, 3)) {
     discard_ = true;  // /dev/null: the messages are meant to go nowhere
     return;
   }
-  if (fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+  if (!stat_ok || !S_ISREG(st.st_mode)) {
     close(fd_);
     fd_ = -1;
     throw std::runtime_error("LCM log " + log.path +

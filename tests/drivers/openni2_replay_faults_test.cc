@@ -29,6 +29,21 @@ constexpr int kFrames = 8;
 constexpr int kW = 160;
 constexpr int kH = 120;
 
+// The frames of test recording `frames[i]` are frame i, in order, with the right depth; the
+// colour attached to a frame, if any, is that frame's.
+void ExpectTestFramesInOrder(const std::vector<core::RgbdFrame>& frames, int* with_color) {
+  *with_color = 0;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_EQ(testutil::CountDepthMismatches(frames[i].depth, static_cast<int>(i)), 0)
+        << "frame " << i;
+    if (!frames[i].color.empty()) {
+      ++*with_color;
+      EXPECT_EQ(testutil::CountColorMismatches(frames[i].color, static_cast<int>(i)), 0)
+          << "frame " << i << " carries another frame's colour";
+    }
+  }
+}
+
 class OpenNI2ReplayFaults : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -66,6 +81,21 @@ class OpenNI2ReplayFaults : public ::testing::Test {
     return frames;
   }
 
+  // Replays `path` at `speed` and expects the whole recording: every frame in order, each
+  // with its own colour, none counted as lost. Returns the report for further checks.
+  core::SourceReport ExpectEveryFrameWithItsColour(const std::string& path, double speed) {
+    core::SourceReport r;
+    ReadStatus last;
+    const auto frames = ReplayAll(path, speed, &r, &last);
+    EXPECT_EQ(last, ReadStatus::kEndOfStream) << r.ToString();
+    EXPECT_EQ(frames.size(), static_cast<size_t>(kFrames)) << r.ToString();
+    int with_color = 0;
+    ExpectTestFramesInOrder(frames, &with_color);
+    EXPECT_EQ(with_color, kFrames);
+    EXPECT_FALSE(r.lost_frames()) << r.ToString();
+    return r;
+  }
+
   // Open() must refuse `path` with a message naming it and containing `why`.
   static std::string ExpectRefused(const std::string& path, const std::string& why) {
     OpenNI2SourceOptions o;
@@ -88,21 +118,6 @@ class OpenNI2ReplayFaults : public ::testing::Test {
   std::string good_;
   std::vector<uint8_t> bytes_;
 };
-
-// The frames of test recording `frames[i]` are frame i, in order, with the right depth; the
-// colour attached to a frame, if any, is that frame's.
-void ExpectTestFramesInOrder(const std::vector<core::RgbdFrame>& frames, int* with_color) {
-  *with_color = 0;
-  for (size_t i = 0; i < frames.size(); ++i) {
-    EXPECT_EQ(testutil::CountDepthMismatches(frames[i].depth, static_cast<int>(i)), 0)
-        << "frame " << i;
-    if (!frames[i].color.empty()) {
-      ++*with_color;
-      EXPECT_EQ(testutil::CountColorMismatches(frames[i].color, static_cast<int>(i)), 0)
-          << "frame " << i << " carries another frame's colour";
-    }
-  }
-}
 
 TEST_F(OpenNI2ReplayFaults, SoundRecordingIsFullyAccountedFor) {
   core::SourceReport r;
@@ -140,15 +155,7 @@ TEST_F(OpenNI2ReplayFaults, ColourIdsOffsetByOneStillPairEveryFrame) {
   const std::string path = Write("color_ids_offset.oni", b);
   for (double speed : {-1.0, 4.0}) {
     SCOPED_TRACE(speed);
-    core::SourceReport r;
-    ReadStatus last;
-    const auto frames = ReplayAll(path, speed, &r, &last);
-    EXPECT_EQ(last, ReadStatus::kEndOfStream);
-    ASSERT_EQ(frames.size(), static_cast<size_t>(kFrames)) << r.ToString();
-    int with_color = 0;
-    ExpectTestFramesInOrder(frames, &with_color);
-    EXPECT_EQ(with_color, kFrames);
-    EXPECT_FALSE(r.lost_frames()) << r.ToString();
+    ExpectEveryFrameWithItsColour(path, speed);
   }
 }
 
@@ -159,15 +166,7 @@ TEST_F(OpenNI2ReplayFaults, DepthRecordsBeforeColourDeliverEveryDepthFrame) {
   std::vector<uint8_t> b = bytes_;
   testutil::DepthRecordsFirst(&b);
   const std::string path = Write("depth_first.oni", b);
-  core::SourceReport r;
-  ReadStatus last;
-  const auto frames = ReplayAll(path, -1, &r, &last);
-  EXPECT_EQ(last, ReadStatus::kEndOfStream);
-  ASSERT_EQ(frames.size(), static_cast<size_t>(kFrames)) << r.ToString();
-  int with_color = 0;
-  ExpectTestFramesInOrder(frames, &with_color);
-  EXPECT_EQ(with_color, kFrames);
-  EXPECT_FALSE(r.lost_frames()) << r.ToString();
+  const core::SourceReport r = ExpectEveryFrameWithItsColour(path, -1);
   EXPECT_EQ(r.frames_delivered, static_cast<uint64_t>(kFrames));
   EXPECT_EQ(r.frames_without_color, 0u) << r.ToString();
 }
@@ -180,15 +179,7 @@ TEST_F(OpenNI2ReplayFaults, EqualTimestampsAtRecordedSpeedDeliverEveryFrame) {
     if (r.type == testutil::kRecNewData) testutil::SetFrameTimestamp(&b, r, 0);
   }
   const std::string path = Write("equal_ts.oni", b);
-  core::SourceReport r;
-  ReadStatus last;
-  const auto frames = ReplayAll(path, 1.0, &r, &last);
-  EXPECT_EQ(last, ReadStatus::kEndOfStream);
-  ASSERT_EQ(frames.size(), static_cast<size_t>(kFrames)) << r.ToString();
-  int with_color = 0;
-  ExpectTestFramesInOrder(frames, &with_color);
-  EXPECT_EQ(with_color, kFrames);
-  EXPECT_FALSE(r.lost_frames()) << r.ToString();
+  ExpectEveryFrameWithItsColour(path, 1.0);
 }
 
 // Colour missing for frames 3..5, as a live recording has when the colour camera drops
