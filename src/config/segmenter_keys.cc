@@ -17,6 +17,16 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),
 
+      CLUTTERSEG_SEGMENTER_KEY(support, enabled),
+      CLUTTERSEG_SEGMENTER_KEY(support, cell_px),
+      CLUTTERSEG_SEGMENTER_KEY(support, min_valid_fraction),
+      CLUTTERSEG_SEGMENTER_KEY(support, max_rms_at_1m_m),
+      CLUTTERSEG_SEGMENTER_KEY(support, min_rms_m),
+      CLUTTERSEG_SEGMENTER_KEY(support, max_normal_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(support, max_region_rms),
+      CLUTTERSEG_SEGMENTER_KEY(support, margin_px),
+      CLUTTERSEG_SEGMENTER_KEY(support, max_point_distance_rms),
+
       CLUTTERSEG_GRID_KEY(voxel_resolution_m),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, seed_resolution_m),
       CLUTTERSEG_SEGMENTER_KEY(supervoxel, color_importance),

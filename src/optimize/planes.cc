@@ -250,16 +250,21 @@ void PlaneLabeler::FindPlanes(const graph::PatchFeatures& f, std::vector<PlaneMo
 
 void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
                            PlaneLabeling* out) {
+  Compute(sv, f, {}, out);
+}
+
+void PlaneLabeler::Compute(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
+                           const std::vector<PlaneModel>& fixed, PlaneLabeling* out) {
   const auto t0 = std::chrono::steady_clock::now();
   out->expansion_ms = 0.0;
-  Label(sv, f, out);
+  Label(sv, f, fixed, out);
   const double total_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   out->hypotheses_ms = std::max(0.0, total_ms - out->expansion_ms);
 }
 
 void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& f,
-                         PlaneLabeling* out) {
+                         const std::vector<PlaneModel>& fixed, PlaneLabeling* out) {
   const size_t n = sv.size();
   if (f.size() != n || f.num_points.size() != n || f.a2d.size() != n) {
     throw std::runtime_error("PlaneLabeler: features have " + std::to_string(f.size()) +
@@ -271,13 +276,41 @@ void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFe
                              std::to_string(sv.adjacency_offsets.size()) + " entries for " +
                              std::to_string(n) + " supervoxels");
   }
-  FindPlanes(f, &hypotheses_);
+  FindPlanes(f, &found_);
+  // A fixed plane along a found one (normals within duplicate_angle_deg, offsets within
+  // duplicate_distance_m) is the same surface: the found plane, fitted to the supervoxels
+  // like every other, takes its points and area. A fixed plane with no match is a hypothesis
+  // of its own, ahead of the found ones.
+  const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
+  hypotheses_.clear();
+  for (const PlaneModel& p : fixed) {
+    PlaneModel* match = nullptr;
+    for (PlaneModel& q : found_) {
+      if (Dot(p.normal, q.normal) >= dup_cos &&
+          std::fabs(p.d - q.d) < params_.duplicate_distance_m) {
+        match = &q;
+        break;
+      }
+    }
+    if (match != nullptr) {
+      match->fixed_points += p.fixed_points;
+      match->fixed_area_m2 += p.fixed_area_m2;
+    } else {
+      hypotheses_.push_back(p);
+    }
+  }
+  const size_t num_fixed = hypotheses_.size();  // kept in the output even with no supervoxel
+  for (const PlaneModel& q : found_) hypotheses_.push_back(q);
   out->num_hypotheses = static_cast<int>(hypotheses_.size());
   out->planes.clear();
   out->patch_plane.assign(n, -1);
   out->energy = 0.0;
   out->expansion_cycles = 0;
-  if (n == 0 || hypotheses_.empty()) return;
+  if (n == 0 || hypotheses_.empty()) {
+    out->planes.assign(hypotheses_.begin(), hypotheses_.begin() + num_fixed);
+    for (PlaneModel& p : out->planes) p.num_points = p.num_patches = 0;
+    return;
+  }
 
   // Unary costs in units of rho; label p < P is plane p, label P is l0.
   const size_t num_planes = hypotheses_.size();
@@ -329,7 +362,9 @@ void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFe
     ++hypotheses_[l].num_patches;
   }
   for (size_t p = 0; p < num_planes; ++p) {
-    if (hypotheses_[p].num_patches == 0) continue;
+    if (hypotheses_[p].num_patches == 0 && p >= num_fixed && hypotheses_[p].fixed_points == 0) {
+      continue;
+    }
     remap_[p] = static_cast<int32_t>(out->planes.size());
     out->planes.push_back(hypotheses_[p]);
   }

@@ -18,11 +18,17 @@ struct PlaneModel {
   float d{0.f};
   uint32_t num_points{0};   ///< member points of the supervoxels assigned to the plane
   uint32_t num_patches{0};  ///< supervoxels assigned to the plane
+  /// A plane given to PlaneLabeler::Compute before the supervoxels (found on the pixel grid):
+  /// the points it took from the cloud (not in any supervoxel) and their metric area, m^2.
+  /// Zero for the planes found here.
+  uint32_t fixed_points{0};
+  float fixed_area_m2{0.f};
 };
 
 /// Output of PlaneLabeler::Compute.
 struct PlaneLabeling {
-  /// Planes that received at least one supervoxel, in order of acceptance.
+  /// Planes that received at least one supervoxel or hold fixed points (see Compute): the
+  /// unmatched fixed planes first, then the found ones in order of acceptance.
   std::vector<PlaneModel> planes;
   /// Per supervoxel: index into `planes`, or -1 for l0 ("on no plane").
   std::vector<int32_t> patch_plane;
@@ -52,6 +58,13 @@ class PlaneLabeler {
   /// @throws std::runtime_error when the sizes disagree.
   void Compute(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
                PlaneLabeling* out);
+  /// The same with `fixed` planes found before the supervoxels (fixed_points > 0). A found
+  /// plane along a fixed one (within duplicate_angle_deg and duplicate_distance_m) takes its
+  /// fixed_points and fixed_area_m2 and keeps its own fit; a fixed plane no found plane
+  /// matches is a hypothesis ahead of the found ones. Planes holding fixed points stay in the
+  /// output even with no supervoxel.
+  void Compute(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
+               const std::vector<PlaneModel>& fixed, PlaneLabeling* out);
 
   /// Plane hypotheses only: candidates grown and refitted from the flattest uncovered seed
   /// patches (at most max_candidate_trials), then accepted largest first (by inlier points)
@@ -69,7 +82,7 @@ class PlaneLabeler {
     uint32_t index;
   };
   void Label(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,
-             PlaneLabeling* out);
+             const std::vector<PlaneModel>& fixed, PlaneLabeling* out);
   void PackPatches(const graph::PatchFeatures& f);
   // Patches within rho (times tolerance_scale) of the plane whose normal is within the inlier
   // angle (times tolerance_scale, capped below 90 deg) and, with a centre, within radius_m of it.
@@ -85,6 +98,7 @@ class PlaneLabeler {
   };
   std::vector<Candidate> candidates_;
   std::vector<PlaneModel> hypotheses_;
+  std::vector<PlaneModel> found_;
   std::vector<uint32_t> seeds_;
   std::vector<uint32_t> inliers_;
   std::vector<PackedPatch> packed_;

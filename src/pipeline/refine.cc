@@ -156,7 +156,10 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   // angle t covers z^2 / (fx fy cos t); an unorganized cloud has no pixels (and may be
   // merged from several views), so each patch counts the area of its points' spread. Object
   // faces are small even when they fill much of the image.
-  plane_area_.assign(num_planes, 0.0);
+  // A plane found on the pixel grid before the supervoxels starts with the area of the points
+  // it took, and is a support whatever remains: its region covered the support area.
+  plane_area_.resize(num_planes);
+  for (size_t p = 0; p < num_planes; ++p) plane_area_[p] = planes.planes[p].fixed_area_m2;
   const double pixel_area = 1.0 / (intrinsics.fx * intrinsics.fy);
   for (size_t i = 0; i < n; ++i) {
     const int32_t p = planes.patch_plane[i];
@@ -178,12 +181,12 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   out_planes->resize(num_planes);
   for (size_t p = 0; p < num_planes; ++p) {
     const optimize::PlaneModel& pm = planes.planes[p];
-    support_[p] = plane_area_[p] >= params.support_min_area_m2 ? 1 : 0;
+    support_[p] = plane_area_[p] >= params.support_min_area_m2 || pm.fixed_points > 0 ? 1 : 0;
     Plane& out = (*out_planes)[p];
     out.id = static_cast<uint32_t>(p);
     out.normal = pm.normal;
     out.d = pm.d;
-    out.num_points = pm.num_points;
+    out.num_points = pm.num_points + pm.fixed_points;
     out.area_m2 = static_cast<float>(plane_area_[p]);
     out.is_support = support_[p] != 0;
   }

@@ -44,6 +44,9 @@ struct SegmentationResult {
   std::vector<Plane> planes;
   uint32_t num_supervoxels{0};
   uint32_t num_valid_points{0};
+  /// Of those, the points the support-first step gave to a large plane before the supervoxels
+  /// (segmenter.support): background, counted in their plane's num_points.
+  uint32_t num_support_first_points{0};
   /// The frame reached a cap: more seeds than supervoxel.max_supervoxels (some left out), or
   /// more objects than objects.max_objects (the smallest became background).
   bool supervoxels_capped{false};

@@ -2,6 +2,7 @@
 
 #include <chrono>
 
+#include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/optimize/planes.h"
@@ -26,6 +27,7 @@ struct Segmenter::Impl {
   Impl(const SegmenterParams& p, core::ThreadPool* pool)
       : params((p.ValidateOrThrow(), p)),
         points(p.points, pool),
+        support(p.support, pool),
         supervoxelizer(p.supervoxel, pool),
         features(pool),
         linkage(p.linkage, pool),
@@ -35,6 +37,7 @@ struct Segmenter::Impl {
 
   const SegmenterParams params;
   WorkingCloudBuilder points;
+  geometry::PlanarRegionFinder support;
   supervoxel::Supervoxelizer supervoxelizer;
   graph::PatchFeatureExtractor features;
   graph::Linkage linkage;
@@ -43,6 +46,8 @@ struct Segmenter::Impl {
   ObjectExtractor objects;
 
   WorkingCloud work;
+  geometry::PlanarRegions regions;
+  std::vector<optimize::PlaneModel> fixed_planes;
   supervoxel::Supervoxels sv;
   graph::PatchFeatures patch;
   graph::LinkageResult link;
@@ -93,9 +98,26 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   result->objects.clear();
   result->planes.clear();
   result->num_supervoxels = 0;
+  result->num_support_first_points = 0;
   result->supervoxels_capped = false;
   result->objects_capped = false;
   if (m.work.num_valid == 0) return;
+
+  // Support first: the interior of the large planes leaves the working cloud (the points
+  // stay in the input, and in `cloud`), and their planes go to the plane labelling as fixed
+  // hypotheses carrying the points and area they took.
+  m.support.Compute(intrinsics, m.params.objects.support_min_area_m2, &m.work.cloud, &m.regions);
+  times[Stage::kSupport] = m.regions.time_ms;
+  result->num_support_first_points = m.regions.num_taken_points;
+  m.fixed_planes.clear();
+  for (const geometry::PlanarRegion& r : m.regions.regions) {
+    optimize::PlaneModel pm;
+    pm.normal = r.normal;
+    pm.d = r.d;
+    pm.fixed_points = r.num_taken_points;
+    pm.fixed_area_m2 = r.taken_area_m2;
+    m.fixed_planes.push_back(pm);
+  }
 
   m.supervoxelizer.Compute(work, &m.sv);
   const supervoxel::SupervoxelTimings& st = m.sv.timings;
@@ -121,7 +143,7 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   m.linkage.Compute(m.sv, m.patch, cues, &m.link);
   times[Stage::kLinkage] = m.link.time_ms;
 
-  m.plane_labeler.Compute(m.sv, m.patch, &m.planes);
+  m.plane_labeler.Compute(m.sv, m.patch, m.fixed_planes, &m.planes);
   times[Stage::kPlanes] = m.planes.hypotheses_ms;
   times[Stage::kExpansion] = m.planes.expansion_ms;
 

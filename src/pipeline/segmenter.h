@@ -12,9 +12,9 @@
 namespace clutterseg::pipeline {
 
 /// Segments one frame into objects and support planes with the method of docs/method.md:
-/// the stages of StageTable() in order (working cloud, supervoxels, patch features, local
-/// area linkage with convexity, plane hypotheses, alpha-expansion, refinement, object
-/// statistics). Each stage is built once here from its section of the params and the pool.
+/// the stages of StageTable() in order (working cloud, support planes first, supervoxels, patch
+/// features, local area linkage with convexity, plane hypotheses, alpha-expansion, refinement,
+/// object statistics). Each stage is built once here from its section of the params and the pool.
 ///
 /// Thread-safety: one Segmenter processes one frame at a time (Process is not reentrant);
 /// use one Segmenter per frame in flight (FrameRunner does). Work inside a frame goes through
@@ -43,7 +43,9 @@ class Segmenter {
   void ProcessDepth(const core::DepthImage& depth, const core::ColorImage* color,
                     const core::CameraIntrinsics& intrinsics, SegmentationResult* result);
   /// The cloud the last call segmented: its input restricted to the depth range
-  /// (params().points), with ProcessDepth's colour. Valid until the next call.
+  /// (params().points), with ProcessDepth's colour, less the points the support-first step
+  /// gave to a large plane (params().support; SegmentationResult::num_support_first_points).
+  /// Valid until the next call.
   const core::PointCloud& working_cloud() const;
 
   const SegmenterParams& params() const;

@@ -22,6 +22,7 @@ void ObjectParams::ValidateOrThrow() const {
 
 void SegmenterParams::ValidateOrThrow() const {
   points.ValidateOrThrow();
+  support.ValidateOrThrow();
   supervoxel.ValidateOrThrow();
   linkage.ValidateOrThrow();
   planes.ValidateOrThrow();

@@ -2,6 +2,7 @@
 
 #include <string_view>
 
+#include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage_params.h"
 #include "clutterseg/optimize/plane_params.h"
 #include "clutterseg/pipeline/working_cloud.h"
@@ -66,6 +67,7 @@ struct ObjectParams {
 /// docs/method.md for the paper's settings (config/paper.yaml).
 struct SegmenterParams {
   PointsParams points;
+  geometry::PlanarRegionParams support;
   supervoxel::SupervoxelParams supervoxel;
   graph::LinkageParams linkage;
   optimize::PlaneParams planes;

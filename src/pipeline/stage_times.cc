@@ -5,6 +5,7 @@ namespace clutterseg::pipeline {
 const std::array<StageInfo, kNumStages>& StageTable() {
   static const std::array<StageInfo, kNumStages> kTable = {{
       {"points", "depth range (or back-projection) into the working cloud"},
+      {"support", "large planes on the pixel grid (support first)"},
       {"voxelize", "voxel octree leaves and 26-adjacency"},
       {"normals", "voxel normals"},
       {"seeding", "supervoxel seeds"},

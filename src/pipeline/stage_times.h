@@ -11,6 +11,7 @@ namespace clutterseg::pipeline {
 /// benchmarks and the stage chart are all read from it.
 enum class Stage : int {
   kPoints,           ///< input -> working cloud within the depth range (or depth back-projection)
+  kSupport,          ///< large planes found on the pixel grid take their interior points
   kVoxelize,         ///< voxel octree leaves and their 26-adjacency
   kNormals,          ///< voxel normals and curvature
   kSeeding,          ///< supervoxel seeds
@@ -24,7 +25,7 @@ enum class Stage : int {
   kObjects,          ///< object statistics
 };
 
-inline constexpr size_t kNumStages = 12;
+inline constexpr size_t kNumStages = 13;
 
 /// Name and one-line description of a stage.
 struct StageInfo {

@@ -93,6 +93,52 @@ TEST_F(SegmenterTest, SeparatesFreeStandingObjectsAndRemovesTheTable) {
   EXPECT_EQ(checked, 3);
 }
 
+// Support first: the table's interior leaves the working cloud before the supervoxels. Only
+// table points go, the objects come out as without the step, and the table's plane (a
+// support) counts the points it took.
+TEST_F(SegmenterTest, SupportFirstTakesOnlyTheTableAndKeepsTheObjects) {
+  int checked = 0;
+  for (uint64_t seed : {11u, 12u, 13u}) {
+    const Rendered r = Render(SimpleParams(), seed);
+    SegmenterParams off_params = params_;
+    off_params.support.enabled = false;
+    Segmenter on(params_), off(off_params);
+    SegmentationResult with, without;
+    on.Process(r.cloud, r.intrinsics, &with);
+    off.Process(r.cloud, r.intrinsics, &without);
+    EXPECT_EQ(without.num_support_first_points, 0u);
+    ASSERT_GT(with.num_support_first_points, with.num_valid_points / 5) << "seed " << seed;
+    EXPECT_EQ(with.num_valid_points, without.num_valid_points);
+    EXPECT_LT(with.num_supervoxels, without.num_supervoxels);
+
+    // The points taken are the ones the working cloud lost, all of them the table's.
+    const core::PointCloud& work = on.working_cloud();
+    size_t taken = 0, taken_objects = 0;
+    for (size_t i = 0; i < r.cloud.size(); ++i) {
+      if (!core::IsValid(r.cloud.xyz[i]) || r.cloud.xyz[i].z > params_.points.max_depth_m ||
+          r.cloud.xyz[i].z < params_.points.min_depth_m || core::IsValid(work.xyz[i])) {
+        continue;
+      }
+      ++taken;
+      taken_objects += r.cloud.label[i] != 0 ? 1 : 0;
+      EXPECT_EQ(with.labels.data[i], 0u);
+    }
+    EXPECT_EQ(taken, with.num_support_first_points);
+    EXPECT_EQ(taken_objects, 0u) << "seed " << seed;
+
+    uint32_t support_points = 0;
+    for (const Plane& p : with.planes) support_points += p.is_support ? p.num_points : 0;
+    EXPECT_GE(support_points, with.num_support_first_points);
+
+    const eval::FrameMetrics m_on = Score(r.cloud, with), m_off = Score(r.cloud, without);
+    EXPECT_EQ(with.objects.size(), without.objects.size()) << "seed " << seed;
+    EXPECT_EQ(m_on.under_segmented, 0) << "seed " << seed;
+    EXPECT_GT(m_on.wov, m_off.wov - 0.01) << "seed " << seed;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 3);
+}
+
 // The caps: a frame with more objects than objects.max_objects keeps the largest, renumbered
 // in their order; one with more seeds than supervoxel.max_supervoxels grows fewer, larger
 // supervoxels. Both are flagged; below the caps nothing changes.
@@ -291,7 +337,9 @@ TEST_F(SegmenterTest, ProcessDepthEqualsBackProjectionThenProcess) {
     SegmentationResult result;
     dut->ProcessDepth(frame.depth, &frame.color, scene_params.intrinsics, &result);
     EXPECT_EQ(result.num_valid_points, reference.num_valid_points);
-    EXPECT_EQ(dut->working_cloud().CountValid(), reference.num_valid_points);
+    EXPECT_EQ(dut->working_cloud().CountValid(),
+              reference.num_valid_points - reference.num_support_first_points);
+    EXPECT_EQ(result.num_support_first_points, reference.num_support_first_points);
     EXPECT_EQ(result.labels.data, reference.labels.data);
     ASSERT_EQ(result.objects.size(), reference.objects.size());
     for (size_t k = 0; k < result.objects.size(); ++k) {

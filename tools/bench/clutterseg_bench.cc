@@ -166,6 +166,8 @@ struct Sample {
   double wall_ms{0};
   uint32_t supervoxels{0};
   uint32_t objects{0};
+  uint32_t valid_points{0};
+  uint32_t support_first_points{0};
 };
 
 struct ConfigResult {
@@ -180,6 +182,8 @@ struct ConfigResult {
   Summary latency;              // Process() wall time per frame, over frames
   double supervoxels_mean{0};
   double objects_mean{0};
+  double valid_points_mean{0};
+  double support_first_points_mean{0};
   double rss_before_mb{0};  // VmRSS before the configuration's segmenters were created
   double peak_rss_mb{0};    // VmHWM during the configuration (reset before it when possible)
 };
@@ -204,6 +208,8 @@ ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& 
       s.wall_ms = MsBetween(t0, t1);
       s.supervoxels = lane.result->num_supervoxels;
       s.objects = static_cast<uint32_t>(lane.result->objects.size());
+      s.valid_points = lane.result->num_valid_points;
+      s.support_first_points = lane.result->num_support_first_points;
     }
   };
   std::string error;
@@ -264,11 +270,15 @@ ConfigResult RunConfig(const FrameSet& frames, const pipeline::SegmenterParams& 
     per_frame[f] = Median(reps);
   }
   r.latency = Summarize(per_frame);
-  uint64_t sv_sum = 0, obj_sum = 0;
+  uint64_t sv_sum = 0, obj_sum = 0, valid_sum = 0, taken_sum = 0;
   for (size_t f = 0; f < n; ++f) {  // first repetition
     sv_sum += samples[f].supervoxels;
     obj_sum += samples[f].objects;
+    valid_sum += samples[f].valid_points;
+    taken_sum += samples[f].support_first_points;
   }
+  r.valid_points_mean = static_cast<double>(valid_sum) / static_cast<double>(n);
+  r.support_first_points_mean = static_cast<double>(taken_sum) / static_cast<double>(n);
   r.supervoxels_mean = static_cast<double>(sv_sum) / static_cast<double>(n);
   r.objects_mean = static_cast<double>(obj_sum) / static_cast<double>(n);
   return r;
@@ -525,8 +535,14 @@ int Run(int argc, char** argv) {
       "%d x 1000 / (CPU ms) frames per second)\n",
       threads, threads);
   std::printf("  best: %s (%.1f FPS)\n", results[best].config.name.c_str(), results[best].fps);
-  std::printf("  supervoxels per frame %.0f, objects per frame %.1f\n", results[0].supervoxels_mean,
-              results[0].objects_mean);
+  std::printf(
+      "  supervoxels per frame %.0f, objects per frame %.1f, valid points per frame %.0f, of "
+      "which taken by the support-first step %.0f (%.1f%%)\n",
+      results[0].supervoxels_mean, results[0].objects_mean, results[0].valid_points_mean,
+      results[0].support_first_points_mean,
+      results[0].valid_points_mean > 0
+          ? 100.0 * results[0].support_first_points_mean / results[0].valid_points_mean
+          : 0.0);
 
   if (!unorganized.empty()) {
     size_t organized_frames = 0;
@@ -652,6 +668,8 @@ int Run(int argc, char** argv) {
             {"stage_table", std::move(stage_table)},
             {"supervoxels_mean", results[0].supervoxels_mean},
             {"objects_mean", results[0].objects_mean},
+            {"valid_points_mean", results[0].valid_points_mean},
+            {"support_first_points_mean", results[0].support_first_points_mean},
             {"configs", std::move(config_results)}};
   if (!unorganized.empty()) {
     // The same frames shuffled into unorganized clouds (ShuffledUnorganized), 1-lane configs.

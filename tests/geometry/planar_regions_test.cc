@@ -1,0 +1,208 @@
+#include "clutterseg/geometry/planar_regions.h"
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "clutterseg/core/camera_intrinsics.h"
+#include "clutterseg/core/thread_pool.h"
+
+namespace clutterseg::geometry {
+namespace {
+
+constexpr float kNaN = core::kInvalidDepth;
+
+// A Kinect view of a table plane n . p + d = 0 (1 m below and in front of the camera, seen at
+// about 40 deg) with Gaussian depth noise, and a box standing on it: the pixels of `box` (u0,
+// v0, u1, v1) lie `box_height_m` closer to the camera than the table. Pixels beyond 3 m are
+// invalid.
+struct Scene {
+  core::PointCloud cloud;
+  core::CameraIntrinsics k = core::DefaultKinectIntrinsics();
+  core::Vec3f n;
+  float d{0.f};
+  std::vector<uint8_t> on_box;  // per pixel
+};
+
+Scene TableScene(float noise_m, const int box[4], float box_height_m, uint32_t seed = 1) {
+  Scene s;
+  const float tilt = 0.7f;  // radians between the optical axis and the table
+  s.n = core::Vec3f{0.f, -std::cos(tilt), -std::sin(tilt)};  // towards the camera
+  s.d = 0.9f;
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.f, noise_m);
+  s.cloud.width = s.k.width;
+  s.cloud.height = s.k.height;
+  s.cloud.xyz.assign(static_cast<size_t>(s.k.width) * s.k.height, core::Vec3f{kNaN, kNaN, kNaN});
+  s.on_box.assign(s.cloud.xyz.size(), 0);
+  for (int v = 0; v < s.k.height; ++v) {
+    for (int u = 0; u < s.k.width; ++u) {
+      const float rx = static_cast<float>((u - s.k.cx) / s.k.fx);
+      const float ry = static_cast<float>((v - s.k.cy) / s.k.fy);
+      const float denom = s.n.x * rx + s.n.y * ry + s.n.z;
+      if (denom >= 0.f) continue;
+      const bool in_box = u >= box[0] && u < box[2] && v >= box[1] && v < box[3];
+      const float dd = in_box ? s.d - box_height_m : s.d;
+      float z = -dd / denom;
+      if (!(z > 0.3f && z < 3.f)) continue;
+      z += noise_m > 0.f ? noise(rng) : 0.f;
+      const size_t i = static_cast<size_t>(v) * s.k.width + u;
+      s.cloud.xyz[i] = core::Vec3f{rx * z, ry * z, z};
+      s.on_box[i] = in_box ? 1 : 0;
+    }
+  }
+  return s;
+}
+
+float Distance(const core::Vec3f& p, const core::Vec3f& n, float d) {
+  return std::abs(n.x * p.x + n.y * p.y + n.z * p.z + d);
+}
+
+TEST(PlanarRegions, TakesTheTableInteriorAndLeavesTheBoxWithAMargin) {
+  const int box[4] = {280, 260, 360, 340};
+  Scene s = TableScene(0.001f, box, 0.08f);
+  const core::PointCloud before = s.cloud;
+  PlanarRegionParams params;
+  PlanarRegionFinder finder(params);
+  PlanarRegions out;
+  finder.Compute(s.k, 0.15f, &s.cloud, &out);
+
+  ASSERT_EQ(out.regions.size(), 1u);
+  const PlanarRegion& r = out.regions[0];
+  EXPECT_GT(r.normal.x * s.n.x + r.normal.y * s.n.y + r.normal.z * s.n.z, std::cos(0.01));
+  EXPECT_NEAR(r.d, s.d, 0.003f);
+  EXPECT_GE(r.area_m2, 0.15f);
+  EXPECT_GT(r.taken_area_m2, 0.f);
+  EXPECT_LE(r.taken_area_m2, r.area_m2);
+  EXPECT_EQ(r.num_taken_points, out.num_taken_points);
+
+  size_t valid = 0, taken = 0, box_taken = 0, near_box_taken = 0;
+  for (int v = 0; v < s.k.height; ++v) {
+    for (int u = 0; u < s.k.width; ++u) {
+      const size_t i = static_cast<size_t>(v) * s.k.width + u;
+      if (!core::IsValid(before.xyz[i])) {
+        EXPECT_FALSE(core::IsValid(s.cloud.xyz[i]));
+        continue;
+      }
+      ++valid;
+      if (core::IsValid(s.cloud.xyz[i])) {
+        EXPECT_EQ(s.cloud.xyz[i].z, before.xyz[i].z);  // kept points are untouched
+        continue;
+      }
+      ++taken;
+      box_taken += s.on_box[i];
+      // Taken points lie on the table, within the point bound of the found plane.
+      EXPECT_LT(Distance(before.xyz[i], r.normal, r.d), 0.02f);
+      const bool near_box = u >= box[0] - params.margin_px && u < box[2] + params.margin_px &&
+                            v >= box[1] - params.margin_px && v < box[3] + params.margin_px;
+      near_box_taken += near_box ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(taken, out.num_taken_points);
+  EXPECT_EQ(box_taken, 0u);
+  EXPECT_EQ(near_box_taken, 0u) << "the margin around the box stays for the supervoxels";
+  // Most of the table goes (the interior), not all of it (the ring around the box).
+  EXPECT_GT(static_cast<double>(taken) / valid, 0.6);
+  EXPECT_LT(taken, valid - (box[2] - box[0]) * (box[3] - box[1]));
+}
+
+TEST(PlanarRegions, RegionsSmallerThanTheSupportAreaTakeNothing) {
+  const int box[4] = {0, 0, 0, 0};
+  Scene s = TableScene(0.001f, box, 0.f);
+  const core::PointCloud before = s.cloud;
+  PlanarRegionFinder finder(PlanarRegionParams{});
+  PlanarRegions out;
+  finder.Compute(s.k, 1000.f, &s.cloud, &out);  // no table is that large
+  EXPECT_TRUE(out.regions.empty());
+  EXPECT_EQ(out.num_taken_points, 0u);
+  EXPECT_EQ(s.cloud.CountValid(), before.CountValid());
+}
+
+TEST(PlanarRegions, NoiseAboveTheBoundKeepsEveryPoint) {
+  const int box[4] = {0, 0, 0, 0};
+  Scene s = TableScene(0.06f, box, 0.f);  // 6 cm of noise: above the bound up to 3 m
+  const size_t valid = s.cloud.CountValid();
+  PlanarRegionFinder finder(PlanarRegionParams{});
+  PlanarRegions out;
+  finder.Compute(s.k, 0.15f, &s.cloud, &out);
+  EXPECT_TRUE(out.regions.empty());
+  EXPECT_EQ(s.cloud.CountValid(), valid);
+}
+
+TEST(PlanarRegions, PiecesOfOnePlaneCutApartByAnObjectAreOneRegion) {
+  // A row of boxes across the whole image splits the table into a near and a far piece (the
+  // row's top, parallel to the table and large, is a plane of its own).
+  const int box[4] = {0, 200, 640, 260};
+  Scene s = TableScene(0.001f, box, 0.1f);
+  PlanarRegionFinder finder(PlanarRegionParams{});
+  PlanarRegions out;
+  finder.Compute(s.k, 0.15f, &s.cloud, &out);
+  int table_regions = 0;
+  for (const PlanarRegion& r : out.regions) table_regions += std::abs(r.d - s.d) < 0.01f ? 1 : 0;
+  EXPECT_EQ(table_regions, 1);
+  bool near_taken = false, far_taken = false;
+  for (int v = 0; v < s.k.height; ++v) {
+    const bool taken_row = !core::IsValid(s.cloud.xyz[static_cast<size_t>(v) * s.k.width + 320]);
+    near_taken |= taken_row && v > 300;
+    far_taken |= taken_row && v < 160;
+  }
+  EXPECT_TRUE(near_taken);
+  EXPECT_TRUE(far_taken);
+}
+
+TEST(PlanarRegions, UnorganizedOrDisabledCloudsAreLeftAsTheyAre) {
+  const int box[4] = {0, 0, 0, 0};
+  Scene s = TableScene(0.001f, box, 0.f);
+  const size_t valid = s.cloud.CountValid();
+  PlanarRegionParams off;
+  off.enabled = false;
+  PlanarRegions out;
+  PlanarRegionFinder(off).Compute(s.k, 0.15f, &s.cloud, &out);
+  EXPECT_TRUE(out.regions.empty());
+  EXPECT_EQ(s.cloud.CountValid(), valid);
+
+  core::PointCloud flat = s.cloud;
+  flat.width = static_cast<int>(flat.xyz.size());
+  flat.height = 1;
+  PlanarRegionFinder(PlanarRegionParams{}).Compute(s.k, 0.15f, &flat, &out);
+  EXPECT_TRUE(out.regions.empty());
+  EXPECT_EQ(flat.CountValid(), valid);
+}
+
+TEST(PlanarRegions, ResultDoesNotDependOnThePool) {
+  const int box[4] = {100, 250, 220, 330};
+  const Scene s = TableScene(0.0015f, box, 0.05f, 7);
+  core::PointCloud a = s.cloud, b = s.cloud;
+  PlanarRegions ra, rb;
+  PlanarRegionFinder(PlanarRegionParams{}).Compute(s.k, 0.15f, &a, &ra);
+  core::ThreadPool pool(3);
+  PlanarRegionFinder(PlanarRegionParams{}, &pool).Compute(s.k, 0.15f, &b, &rb);
+  ASSERT_EQ(ra.regions.size(), rb.regions.size());
+  for (size_t i = 0; i < ra.regions.size(); ++i) {
+    EXPECT_EQ(ra.regions[i].d, rb.regions[i].d);
+    EXPECT_EQ(ra.regions[i].num_taken_points, rb.regions[i].num_taken_points);
+    EXPECT_EQ(ra.regions[i].taken_area_m2, rb.regions[i].taken_area_m2);
+  }
+  for (size_t i = 0; i < a.xyz.size(); ++i) {
+    ASSERT_EQ(core::IsValid(a.xyz[i]), core::IsValid(b.xyz[i])) << i;
+  }
+}
+
+TEST(PlanarRegions, InvalidParametersNameTheKey) {
+  PlanarRegionParams p;
+  p.cell_px = 2;
+  try {
+    PlanarRegionFinder finder(p);
+    FAIL() << "no throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("segmenter.support.cell_px"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace clutterseg::geometry
