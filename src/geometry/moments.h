@@ -12,6 +12,21 @@ namespace clutterseg::geometry {
 /// sets are the sums of their moments.
 inline constexpr int kNumMoments = 10;
 
+/// Adds the point `p` (metres) to the moments `m` (kNumMoments values, in the order above).
+inline void AddToMoments(const core::Vec3f& p, double* m) {
+  const double x = p.x, y = p.y, z = p.z;
+  m[0] += 1.0;
+  m[1] += x;
+  m[2] += y;
+  m[3] += z;
+  m[4] += x * x;
+  m[5] += x * y;
+  m[6] += x * z;
+  m[7] += y * y;
+  m[8] += y * z;
+  m[9] += z * z;
+}
+
 /// Second-order shape of a point set.
 struct ShapeSummary {
   core::Vec3f centroid;               ///< mean, metres

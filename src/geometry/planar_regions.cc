@@ -95,17 +95,7 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
           for (size_t u = cc * c; u < u_end; ++u) {
             const core::Vec3f p = line[u];
             if (!(p.z == p.z)) continue;
-            const double x = p.x, y = p.y, z = p.z;
-            s[0] += 1.0;
-            s[1] += x;
-            s[2] += y;
-            s[3] += z;
-            s[4] += x * x;
-            s[5] += x * y;
-            s[6] += x * z;
-            s[7] += y * y;
-            s[8] += y * z;
-            s[9] += z * z;
+            AddToMoments(p, s);
           }
           double* m = row + cc * kNumMoments;
           for (size_t k = 0; k < kNumMoments; ++k) m[k] += s[k];
@@ -319,9 +309,14 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   out->regions.erase(std::remove_if(out->regions.begin(), out->regions.end(),
                                     [](const PlanarRegion& r) { return r.num_taken_points == 0; }),
                      out->regions.end());
-  std::stable_sort(
-      out->regions.begin(), out->regions.end(),
-      [](const PlanarRegion& a, const PlanarRegion& b) { return a.area_m2 > b.area_m2; });
+  // Largest first, ties in growth order: an insertion sort (a handful of regions; stable
+  // without the temporary buffer std::stable_sort allocates).
+  std::vector<PlanarRegion>& regions = out->regions;
+  for (size_t i = 1; i < regions.size(); ++i) {
+    for (size_t j = i; j > 0 && regions[j - 1].area_m2 < regions[j].area_m2; --j) {
+      std::swap(regions[j - 1], regions[j]);
+    }
+  }
 }
 
 }  // namespace clutterseg::geometry

@@ -161,17 +161,7 @@ void PatchFeatureExtractor::Compute(const core::PointCloud& cloud,
             run_id = id;
             for (double& x : r) x = 0.0;
           }
-          const double x = p.x, y = p.y, z = p.z;
-          r[0] += 1.0;
-          r[1] += x;
-          r[2] += y;
-          r[3] += z;
-          r[4] += x * x;
-          r[5] += x * y;
-          r[6] += x * z;
-          r[7] += y * y;
-          r[8] += y * z;
-          r[9] += z * z;
+          geometry::AddToMoments(p, r);
         }
         flush();
       }

@@ -594,6 +594,10 @@ void Supervoxelizer::AssignLeftovers() {
       next_frontier_.reserve(frontier_.capacity());
     }
   }
+  // And the other way round: the next frame's first layer goes into frontier_.
+  if (frontier_.capacity() < next_frontier_.capacity()) {
+    frontier_.reserve(next_frontier_.capacity());
+  }
   // Components no seed reached become supervoxels of their own.
   for (size_t v0 = 0; v0 < num_voxels; ++v0) {
     if (owner_[v0] >= 0) continue;
