@@ -269,8 +269,8 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
       if (inside) taken_blocks_.push_back(static_cast<uint32_t>(i * 4 + q));
     }
   }
-  chunk_taken_.assign(taken_blocks_.size(), 0);
-  chunk_area_.assign(taken_blocks_.size(), 0.0);
+  block_taken_.assign(taken_blocks_.size(), 0);
+  block_area_.assign(taken_blocks_.size(), 0.0);
   const float point_k = params_.max_point_distance_rms;
   core::ForChunks(pool_, taken_blocks_.size(), kTakenBlockGrain, [&](size_t b, size_t e) {
     for (size_t t = b; t < e; ++t) {
@@ -290,20 +290,16 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
       }
       // The area of the block's pixels, at its cell's centroid (a cell spans a few
       // centimetres).
-      chunk_taken_[t] = taken;
-      chunk_area_[t] = taken * PixelArea(cells_[i].centroid, region.normal, pixel_area);
+      block_taken_[t] = taken;
+      block_area_[t] = taken * PixelArea(cells_[i].centroid, region.normal, pixel_area);
     }
   });
-  std::vector<double>& region_area = region_area_;
-  region_area.assign(out->regions.size(), 0.0);  // now per kept region
+  // Summed in block order: the same totals for any pool.
   for (size_t t = 0; t < taken_blocks_.size(); ++t) {
-    const size_t r = static_cast<size_t>(cell_region_[taken_blocks_[t] / 4]);
-    out->regions[r].num_taken_points += chunk_taken_[t];
-    region_area[r] += chunk_area_[t];
-    out->num_taken_points += chunk_taken_[t];
-  }
-  for (size_t r = 0; r < out->regions.size(); ++r) {
-    out->regions[r].taken_area_m2 = static_cast<float>(region_area[r]);
+    PlanarRegion& region = out->regions[static_cast<size_t>(cell_region_[taken_blocks_[t] / 4])];
+    region.num_taken_points += block_taken_[t];
+    region.taken_area_m2 += static_cast<float>(block_area_[t]);
+    out->num_taken_points += block_taken_[t];
   }
   // Regions that took nothing (no interior cell) are left to the supervoxels entirely.
   out->regions.erase(std::remove_if(out->regions.begin(), out->regions.end(),

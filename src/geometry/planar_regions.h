@@ -77,10 +77,11 @@ struct PlanarRegions {
 /// Finds the large planes of an organized cloud on its pixel grid and takes their interior
 /// points out of the cloud, so that the supervoxels (and every stage after them) work on the
 /// objects and a margin of the support around them, not on the whole table, floor and wall.
-/// The points of a region's border cells stay, so the plane hypotheses still see the support
-/// next to each object and the objects' bottoms are cut from it as before.
+/// The points within margin_px of a cell outside the region stay, so the plane hypotheses
+/// still see the support next to each object and the objects' bottoms are cut from it as
+/// before.
 ///
-/// Cost: one pass over the points for the cell moments, one over the taken cells, and a
+/// Cost: one pass over the points for the cell moments, one over the taken blocks, and a
 /// region growing over the cells (1200 for 640x480 at 16 px). Thread-safety: Compute is not
 /// reentrant (buffers are reused); distinct instances are independent. Work is split over
 /// the pool given at construction by rows of cells: the output does not depend on its size.
@@ -116,9 +117,9 @@ class PlanarRegionFinder {
   std::vector<uint32_t> order_;
   std::vector<uint32_t> queue_;
   std::vector<uint32_t> taken_blocks_;  // cell * 4 + quadrant
-  std::vector<uint32_t> chunk_taken_;
-  std::vector<double> chunk_area_;
-  std::vector<double> region_area_;
+  std::vector<uint32_t> block_taken_;   // per taken block: points taken, and their area
+  std::vector<double> block_area_;
+  std::vector<double> region_area_;  // per grown region, m^2
   struct RegionPlane {
     core::Vec3f normal;
     float d{0.f};

@@ -105,7 +105,7 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
 
   // Support first: the interior of the large planes leaves the working cloud (the points
   // stay in the input, and in `cloud`), and their planes go to the plane labelling as fixed
-  // hypotheses carrying the points and area they took.
+  // planes carrying the points and area they took (PlaneLabeler::Compute).
   m.support.Compute(intrinsics, m.params.objects.support_min_area_m2, &m.work.cloud, &m.regions);
   times[Stage::kSupport] = m.regions.time_ms;
   result->num_support_first_points = m.regions.num_taken_points;
