@@ -2,25 +2,65 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <exception>
 #include <memory>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
 
 namespace clutterseg::core {
 namespace {
 thread_local const ThreadPool* t_current_pool = nullptr;
 constexpr size_t kInitialRing = 64;
+
+inline void CpuRelax() {
+#if defined(__x86_64__) || defined(__i386__)
+  _mm_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
 }  // namespace
 
 // Lives on the stack of the ParallelFor call. Workers reach it only through queued Tasks, and
 // ParallelFor returns only after every Task naming it has finished or been cancelled, all
 // under mutex_: nothing touches the job after its call returned.
+//
+// The chunks are cut into one contiguous part per participant (the caller is participant 0).
+// Each takes the chunks of its own part first, then those left in the others': successive
+// calls over the same array give each thread the same stretch of it, which then is still in
+// its core's cache (on the reference machine a core rewriting 3.6 MB that the other core
+// wrote last takes 1.5-2.5x as long as rewriting its own).
 struct ThreadPool::ParallelJob {
+  static constexpr size_t kMaxParts = 16;
+  struct alignas(64) Part {
+    std::atomic<size_t> next{0};
+    size_t end{0};
+  };
+  ParallelJob(FunctionRef<void(size_t, size_t)> f, size_t n_in, size_t grain_in, size_t chunks_in,
+              size_t participants)
+      : fn(f),
+        n(n_in),
+        grain(grain_in),
+        chunks(chunks_in),
+        num_parts(std::min(participants, kMaxParts)) {
+    for (size_t p = 0; p < num_parts; ++p) {
+      parts[p].next.store(p * chunks / num_parts, std::memory_order_relaxed);
+      parts[p].end = (p + 1) * chunks / num_parts;
+    }
+  }
   FunctionRef<void(size_t, size_t)> fn;
   size_t n;
   size_t grain;
   size_t chunks;
-  std::atomic<size_t> next{0};
-  size_t outstanding{0};   // queued or running helper Tasks; guarded by mutex_
+  size_t num_parts;
+  Part parts[kMaxParts];
+  std::atomic<size_t> next_participant{1};  // helpers number themselves from 1
+  // Queued or running helper Tasks: changed under mutex_, read without it by the caller
+  // spinning for its helpers.
+  std::atomic<size_t> outstanding{0};
   std::mutex error_mutex;  // taken only when a chunk throws
   size_t error_chunk{~size_t{0}};
   std::exception_ptr error;
@@ -37,6 +77,7 @@ ThreadPool::~ThreadPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stopping_ = true;
+    stopping_flag_.store(true, std::memory_order_release);
   }
   cv_.notify_all();
   for (auto& t : workers_) t.join();
@@ -53,21 +94,47 @@ void ThreadPool::PushLocked(Task task) {
   }
   ring_[(head_ + count_) % ring_.size()] = std::move(task);
   ++count_;
+  queued_.store(count_, std::memory_order_release);
+}
+
+template <typename Ready>
+bool ThreadPool::SpinUntil(const Ready& ready) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point deadline = Clock::now() + std::chrono::microseconds(kSpinMicroseconds);
+  for (;;) {
+    for (int i = 0; i < 64; ++i) {
+      if (ready()) return true;
+      CpuRelax();
+    }
+    if (Clock::now() >= deadline) return ready();
+  }
 }
 
 void ThreadPool::WorkerLoop() {
   t_current_pool = this;
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
-    cv_.wait(lock, [this] { return stopping_ || count_ > 0; });
+    if (count_ == 0 && !stopping_) {
+      lock.unlock();
+      // No spinning while callers run inline (ActiveCaller): no helper task can come, and
+      // the cores are theirs.
+      SpinUntil([this] {
+        return queued_.load(std::memory_order_acquire) > 0 ||
+               stopping_flag_.load(std::memory_order_acquire) ||
+               active_callers_.load(std::memory_order_relaxed) > 1;
+      });
+      lock.lock();
+      cv_.wait(lock, [this] { return stopping_ || count_ > 0; });
+    }
     if (count_ == 0) return;  // stopping and drained
     Task task = std::move(ring_[head_]);
     ring_[head_] = Task{};
     head_ = (head_ + 1) % ring_.size();
     --count_;
+    queued_.store(count_, std::memory_order_release);
     if (task.job != nullptr) {
       lock.unlock();
-      RunChunks(task.job);
+      RunChunks(task.job, task.job->next_participant.fetch_add(1, std::memory_order_relaxed));
       lock.lock();
       if (--task.job->outstanding == 0) done_cv_.notify_all();
     } else if (task.fn) {
@@ -79,18 +146,25 @@ void ThreadPool::WorkerLoop() {
   }
 }
 
-void ThreadPool::RunChunks(ParallelJob* job) {
-  for (;;) {
-    const size_t c = job->next.fetch_add(1, std::memory_order_relaxed);
-    if (c >= job->chunks) return;
-    try {
-      job->fn(c * job->grain, std::min(job->n, (c + 1) * job->grain));
-    } catch (...) {
-      std::lock_guard<std::mutex> lock(job->error_mutex);
-      if (c < job->error_chunk) {
-        job->error_chunk = c;
-        job->error = std::current_exception();
-      }
+void ThreadPool::RunChunks(ParallelJob* job, size_t participant) {
+  for (size_t k = 0; k < job->num_parts; ++k) {
+    ParallelJob::Part& part = job->parts[(participant + k) % job->num_parts];
+    for (;;) {
+      const size_t c = part.next.fetch_add(1, std::memory_order_relaxed);
+      if (c >= part.end) break;
+      RunChunk(job, c);
+    }
+  }
+}
+
+void ThreadPool::RunChunk(ParallelJob* job, size_t c) {
+  try {
+    job->fn(c * job->grain, std::min(job->n, (c + 1) * job->grain));
+  } catch (...) {
+    std::lock_guard<std::mutex> lock(job->error_mutex);
+    if (c < job->error_chunk) {
+      job->error_chunk = c;
+      job->error = std::current_exception();
     }
   }
 }
@@ -120,8 +194,8 @@ void ThreadPool::ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, si
     return;
   }
 
-  ParallelJob job{fn, n, grain, chunks};
   const size_t helpers = std::min(workers_.size(), chunks - 1);
+  ParallelJob job(fn, n, grain, chunks, helpers + 1);
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (size_t i = 0; i < helpers; ++i) PushLocked(Task{&job, {}});
@@ -132,7 +206,7 @@ void ThreadPool::ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, si
   } else {
     cv_.notify_all();
   }
-  RunChunks(&job);
+  RunChunks(&job, 0);
   {
     // Every chunk is claimed now. Helpers no worker has taken yet are cancelled; those
     // running finish the chunk they hold.
@@ -151,7 +225,19 @@ void ThreadPool::ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, si
       if (tail.job != nullptr || tail.fn) break;
       --count_;
     }
-    done_cv_.wait(lock, [&] { return job.outstanding == 0; });
+    queued_.store(count_, std::memory_order_release);
+    if (job.outstanding.load(std::memory_order_relaxed) > 0) {
+      // The helpers hold the last chunks: wait for them spinning first (see the class).
+      lock.unlock();
+      // Not while another caller is active: the helper may then be waiting for a core.
+      const bool done = SpinUntil([&] {
+                          return job.outstanding.load(std::memory_order_acquire) == 0 ||
+                                 active_callers_.load(std::memory_order_relaxed) > 1;
+                        }) &&
+                        job.outstanding.load(std::memory_order_acquire) == 0;
+      lock.lock();
+      if (!done) done_cv_.wait(lock, [&] { return job.outstanding == 0; });
+    }
   }
   if (job.error) std::rethrow_exception(job.error);
 }

@@ -1,5 +1,7 @@
 #include "clutterseg/core/thread_pool.h"
 
+#include <time.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -160,6 +162,47 @@ TEST(ThreadPool, RunsInlineWhileTwoCallersAreActive) {
   EXPECT_TRUE(std::any_of(ids.begin(), ids.end(),
                           [](std::thread::id id) { return id != std::this_thread::get_id(); }));
   ThreadPool::ActiveCaller none(nullptr);  // a null pool is allowed
+}
+
+TEST(ThreadPool, UnevenChunksRunOnceEachWhileThreadsTakeOverOthersParts) {
+  // The chunks of the first part are slow: the other threads finish their own parts and
+  // then take what is left of it. Every chunk must still run exactly once.
+  for (int threads : {2, 3, 5}) {
+    ThreadPool dut(threads);
+    for (int rep = 0; rep < 20; ++rep) {
+      std::vector<std::atomic<int>> hits(97);
+      dut.ParallelFor(hits.size(), 1, [&](size_t b, size_t) {
+        if (b < hits.size() / 4) std::this_thread::sleep_for(std::chrono::microseconds(100));
+        hits[b].fetch_add(1);
+      });
+      for (size_t i = 0; i < hits.size(); ++i) ASSERT_EQ(hits[i].load(), 1) << "chunk " << i;
+    }
+  }
+}
+
+// Process CPU time, ms.
+double ProcessCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
+}
+
+TEST(ThreadPool, IdleWorkersStopSpinningAndBlock) {
+  // After a call the workers spin for a moment (the next call of a frame comes soon), then
+  // block: an idle pool must not keep burning a core.
+  ThreadPool dut(2);
+  std::vector<double> out(1 << 16, 0.0);
+  dut.ParallelFor(out.size(), 1024, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) out[i] = static_cast<double>(i);
+  });
+  const auto spin = std::chrono::microseconds(ThreadPool::kSpinMicroseconds);
+  std::this_thread::sleep_for(10 * spin);  // past the spin: the worker blocked
+  const double cpu0 = ProcessCpuMs();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const double idle_cpu_ms = ProcessCpuMs() - cpu0;
+  // A spinning worker would use about 200 ms of CPU here.
+  EXPECT_LT(idle_cpu_ms, 40.0);
+  EXPECT_EQ(out.back(), static_cast<double>(out.size() - 1));
 }
 
 }  // namespace
