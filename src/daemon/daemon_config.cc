@@ -98,6 +98,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("processing.pipeline_depth", &C::processing,
                 &pipeline::FrameRunnerParams::pipeline_depth),
         MakeKey("processing.max_frames", &C::capture, &CaptureParams::max_frames),
+        MakeKey("processing.prefault_heap_mb", &C::heap, &HeapParams::prefault_mb),
         MakeKey("status.period_s", &C::status, &StatusReporterParams::period_s),
         MakeKey("reconnect.backoff_min_s", &C::capture, &CaptureParams::reconnect_backoff_min_s),
         MakeKey("reconnect.backoff_max_s", &C::capture, &CaptureParams::reconnect_backoff_max_s),
@@ -145,6 +146,7 @@ void DaemonConfig::ValidateOrThrow() const {
   camera.ValidateOrThrow();
   capture.ValidateOrThrow();
   processing.ValidateOrThrow();
+  heap.ValidateOrThrow();
   lcm.ValidateOrThrow();
   status.ValidateOrThrow();
   overlay.ValidateOrThrow();

@@ -5,6 +5,7 @@
 
 #include "clutterseg/config/key_table.h"
 #include "clutterseg/daemon/capture.h"
+#include "clutterseg/daemon/heap.h"
 #include "clutterseg/daemon/lcm_publisher.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/daemon/overlay_writer.h"
@@ -29,6 +30,7 @@ struct DaemonConfig {
   SourceParams camera;                     ///< camera.*: device, depth scale, intrinsics
   CaptureParams capture;                   ///< speed, loop, camera_name, queue, reconnect
   pipeline::FrameRunnerParams processing;  ///< processing.threads, processing.pipeline_depth
+  HeapParams heap;                         ///< processing.prefault_heap_mb
   LcmPublisherParams lcm;                  ///< lcm.*
   StatusReporterParams status;             ///< status.*
   OverlayWriterParams overlay;             ///< output.*

@@ -21,6 +21,7 @@
 
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/daemon_config.h"
+#include "clutterseg/daemon/heap.h"
 #include "clutterseg/daemon/instance_watch.h"
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/lcm_log_file.h"
@@ -158,6 +159,10 @@ int Run(int argc, char** argv) {
     return kExitOk;
   }
   SetLogLevel(cfg.log_level);
+  // Before the threads that allocate (LCM, capture, lanes) start.
+  if (std::string problem; !PrepareHeap(cfg.heap, &problem)) {
+    Log(LogLevel::kWarn, "processing.prefault_heap_mb: " + problem + "; running without it");
+  }
 
   const std::string lcm_url = ResolveLcmUrl(cfg.lcm.url);
   if (const std::string why = CheckLcmUrl(lcm_url); !why.empty()) {

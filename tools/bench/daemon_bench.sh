@@ -10,6 +10,7 @@
 # steady state.
 # Usage: tools/bench/daemon_bench.sh [BUILD_DIR] [FRAMES] RECORDING.oni...
 #   BUILD_DIR defaults to build/release, FRAMES (published at speed max) to 600.
+#   DAEMON_ARGS adds options to every daemon run (e.g. "--set processing.prefault_heap_mb=0").
 #   OVERLAYS=1 adds a third run per recording: 30 Hz with overlay PNGs written (--png-dir), to
 #   compare its latency with the plain 30 Hz run; its "dropped" column then also gives the
 #   overlays written and dropped.
@@ -44,8 +45,9 @@ for oni in "$@"; do
       args=(--speed realtime --loop --max-frames "$rt_frames" --png-dir "$tmp/png")
     fi
     start=$(date +%s.%N)
+    # shellcheck disable=SC2086  # DAEMON_ARGS is a list of words
     /usr/bin/time -f "%M" -o "$tmp/rss" "$daemon" --source "$oni" "${args[@]}" \
-      --lcm-url "file://$log?mode=w" --log-level warn > /dev/null 2>&1
+      --lcm-url "file://$log?mode=w" --log-level warn ${DAEMON_ARGS:-} > /dev/null 2>&1
     end=$(date +%s.%N)
     "$listen" --lcm-url "file://$log?speed=0" > "$tmp/listen.txt" 2>&1 || true
     pngs=$( (find "$tmp/png" -name '*.png' 2> /dev/null || true) | wc -l)

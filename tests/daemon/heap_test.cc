@@ -1,0 +1,73 @@
+#include "clutterseg/daemon/heap.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <sys/resource.h>
+
+namespace clutterseg::daemon {
+namespace {
+
+long MinorFaults() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_minflt;
+}
+
+// Page faults taken by allocating and writing 32 MiB the way a growing work buffer does.
+long FaultsOfA32MiBBuffer() {
+  const long before = MinorFaults();
+  std::vector<float> buffer(size_t{8} << 20, 1.f);
+  volatile float sink = buffer[buffer.size() / 2];
+  (void)sink;
+  return MinorFaults() - before;
+}
+
+// Each case runs in a process of its own (a death test re-runs the binary), since the heap
+// settings are the whole process's.
+TEST(PrepareHeap, GrowingBuffersFindTheirPagesInPlace) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  // Without it, 32 MiB of new buffer are 8192 pages faulted in while the buffer is written.
+  EXPECT_EXIT(
+      {
+        const long faults = FaultsOfA32MiBBuffer();
+        std::fprintf(stderr, "faults %ld\n", faults);
+        std::exit(faults >= 4096 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "faults");
+  // With 64 MiB prefaulted, nearly none.
+  EXPECT_EXIT(
+      {
+        std::string problem;
+        HeapParams params;
+        params.prefault_mb = 64;
+        if (!PrepareHeap(params, &problem)) std::exit(2);
+        const long faults = FaultsOfA32MiBBuffer();
+        std::fprintf(stderr, "faults %ld\n", faults);
+        std::exit(faults < 256 ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "faults");
+}
+
+TEST(PrepareHeap, ZeroLeavesTheHeapAloneAndTheKeyIsChecked) {
+  std::string problem;
+  HeapParams off;
+  off.prefault_mb = 0;
+  EXPECT_TRUE(PrepareHeap(off, &problem));
+  EXPECT_TRUE(problem.empty());
+  HeapParams bad;
+  bad.prefault_mb = -1;
+  try {
+    bad.ValidateOrThrow();
+    ADD_FAILURE() << "a negative size was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("processing.prefault_heap_mb"), std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon
