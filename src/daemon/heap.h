@@ -25,7 +25,8 @@ struct HeapParams {
 /// anew. The real-time Linux recipe for dynamic memory, without locking it (mlockall needs a
 /// privilege the daemon does not ask for). Call it once, early in main, before the threads
 /// that allocate start. Returns false with `*problem` set when glibc refuses a setting or the
-/// memory cannot be had; the process then runs with the heap as it is.
+/// memory cannot be had; the process then runs with the heap as it is. Does nothing in a
+/// sanitizer build (the sanitizer's allocator ignores glibc's settings).
 /// Thread-safety: not thread-safe; call before starting threads.
 bool PrepareHeap(const HeapParams& params, std::string* problem);
 

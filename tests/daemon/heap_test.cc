@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include "tests/testing/expect_invalid_argument.h"
+
 namespace clutterseg::daemon {
 namespace {
 
@@ -29,6 +31,9 @@ long FaultsOfA32MiBBuffer() {
 // Each case runs in a process of its own (a death test re-runs the binary), since the heap
 // settings are the whole process's.
 TEST(PrepareHeap, GrowingBuffersFindTheirPagesInPlace) {
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+  GTEST_SKIP() << "the sanitizers replace glibc's allocator (PrepareHeap does nothing there)";
+#endif
   GTEST_FLAG_SET(death_test_style, "threadsafe");
   // Without it, 32 MiB of new buffer are 8192 pages faulted in while the buffer is written.
   EXPECT_EXIT(
@@ -60,13 +65,8 @@ TEST(PrepareHeap, ZeroLeavesTheHeapAloneAndTheKeyIsChecked) {
   EXPECT_TRUE(problem.empty());
   HeapParams bad;
   bad.prefault_mb = -1;
-  try {
-    bad.ValidateOrThrow();
-    ADD_FAILURE() << "a negative size was accepted";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("processing.prefault_heap_mb"), std::string::npos)
-        << e.what();
-  }
+  testing::ExpectInvalidArgumentNaming([&] { bad.ValidateOrThrow(); },
+                                       "processing.prefault_heap_mb");
 }
 
 }  // namespace

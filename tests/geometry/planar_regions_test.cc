@@ -10,6 +10,7 @@
 
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/thread_pool.h"
+#include "tests/testing/expect_invalid_argument.h"
 
 namespace clutterseg::geometry {
 namespace {
@@ -195,13 +196,8 @@ TEST(PlanarRegions, ResultDoesNotDependOnThePool) {
 TEST(PlanarRegions, InvalidParametersNameTheKey) {
   PlanarRegionParams p;
   p.cell_px = 2;
-  try {
-    PlanarRegionFinder finder(p);
-    FAIL() << "no throw";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("segmenter.support.cell_px"), std::string::npos)
-        << e.what();
-  }
+  testing::ExpectInvalidArgumentNaming([&] { PlanarRegionFinder finder(p); },
+                                       "segmenter.support.cell_px");
 }
 
 }  // namespace
