@@ -76,8 +76,7 @@ ThreadPool::ThreadPool(int num_threads) : ring_(kInitialRing) {
 ThreadPool::~ThreadPool() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    stopping_ = true;
-    stopping_flag_.store(true, std::memory_order_release);
+    stopping_.store(true, std::memory_order_release);
   }
   cv_.notify_all();
   for (auto& t : workers_) t.join();
@@ -120,7 +119,7 @@ void ThreadPool::WorkerLoop() {
       // the cores are theirs.
       SpinUntil([this] {
         return queued_.load(std::memory_order_acquire) > 0 ||
-               stopping_flag_.load(std::memory_order_acquire) ||
+               stopping_.load(std::memory_order_acquire) ||
                active_callers_.load(std::memory_order_relaxed) > 1;
       });
       lock.lock();

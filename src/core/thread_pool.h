@@ -110,10 +110,9 @@ class ThreadPool {
   std::vector<Task> ring_;           // circular queue, capacity ring_.size()
   size_t head_{0};
   size_t count_{0};
-  std::atomic<size_t> queued_{0};  // count_, written under mutex_, read by spinning workers
-  bool stopping_{false};
-  std::atomic<bool> stopping_flag_{false};  // stopping_, for spinning workers
-  std::atomic<int> active_callers_{0};      // see ActiveCaller
+  std::atomic<size_t> queued_{0};       // count_, written under mutex_, read by spinning workers
+  std::atomic<bool> stopping_{false};   // set under mutex_; spinning workers read it without
+  std::atomic<int> active_callers_{0};  // see ActiveCaller
 };
 
 /// Calls `fn(begin, end)` for the chunks [k*grain, min(n, (k+1)*grain)) of [0, n) (grain > 0):

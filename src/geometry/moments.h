@@ -12,19 +12,25 @@ namespace clutterseg::geometry {
 /// sets are the sums of their moments.
 inline constexpr int kNumMoments = 10;
 
+/// Adds the point `p` (metres) to the nine sums x, y, z, xx, xy, xz, yy, yz, zz at `s` (the
+/// moments after the count, for sums that keep their count apart).
+inline void AddToSums(const core::Vec3f& p, double* s) {
+  const double x = p.x, y = p.y, z = p.z;
+  s[0] += x;
+  s[1] += y;
+  s[2] += z;
+  s[3] += x * x;
+  s[4] += x * y;
+  s[5] += x * z;
+  s[6] += y * y;
+  s[7] += y * z;
+  s[8] += z * z;
+}
+
 /// Adds the point `p` (metres) to the moments `m` (kNumMoments values, in the order above).
 inline void AddToMoments(const core::Vec3f& p, double* m) {
-  const double x = p.x, y = p.y, z = p.z;
   m[0] += 1.0;
-  m[1] += x;
-  m[2] += y;
-  m[3] += z;
-  m[4] += x * x;
-  m[5] += x * y;
-  m[6] += x * z;
-  m[7] += y * y;
-  m[8] += y * z;
-  m[9] += z * z;
+  AddToSums(p, m + 1);
 }
 
 /// Second-order shape of a point set.

@@ -269,17 +269,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       }
       point_voxel[i] = vox;
       const size_t v = static_cast<size_t>(vox);
-      const double x = p.x, y = p.y, z = p.z;
-      double* s = &band.sums[9 * v];
-      s[0] += x;
-      s[1] += y;
-      s[2] += z;
-      s[3] += x * x;
-      s[4] += x * y;
-      s[5] += x * z;
-      s[6] += y * y;
-      s[7] += y * z;
-      s[8] += z * z;
+      AddToSums(p, &band.sums[9 * v]);
       ++band.count[v];
       if (with_color) {
         const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
