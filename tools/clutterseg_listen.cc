@@ -162,6 +162,7 @@ struct Listener {
   uint64_t png_failures{0};  // label PNGs that could not be written
   clutterseg::core::LabelImage labels;
   clutterseg::core::ColorImage image;
+  clutterseg::io::PngWriter png_writer;  // buffers reused from frame to frame
 
   void OnObjects(std::string_view channel, const clutterseg::objects_t& msg) {
     const clutterseg::objects_t* m = &msg;
@@ -209,7 +210,7 @@ struct Listener {
       clutterseg::pipeline::RenderOverlay(labels, nullptr, &image);
       char name[64];
       std::snprintf(name, sizeof(name), "/labels_%06lld.png", static_cast<long long>(m->frame_seq));
-      clutterseg::io::WriteColorPng(png_dir + name, image);
+      png_writer.WriteColor(png_dir + name, image);
     } catch (const std::exception& e) {
       ++png_failures;
       std::fprintf(stderr, "clutterseg-listen: frame %lld: %s\n",

@@ -9,7 +9,7 @@ pkgs=(
   libopenni2-0 libopenni2-dev openni2-utils
   liblcm1 liblcm-dev liblcm-bin liblcm-java default-jdk-headless
   libgtest-dev libgmock-dev libbenchmark-dev
-  libpng-dev zlib1g-dev libyaml-cpp-dev libcli11-dev libsystemd-dev nlohmann-json3-dev
+  libpng-dev libdeflate-dev zlib1g-dev libyaml-cpp-dev libcli11-dev libsystemd-dev nlohmann-json3-dev
   libjchart2d-java dpkg-dev file
   clang libclang-rt-14-dev clang-format iproute2
 )

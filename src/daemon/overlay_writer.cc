@@ -59,6 +59,7 @@ void OverlayWriter::Loop() {
   setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
   OverlayFrame frame;
   core::ColorImage image;
+  io::PngWriter png;  // its buffers are reused from frame to frame
   for (;;) {
     if (!queue_.Pop(&frame, std::chrono::milliseconds(100))) {
       if (queue_.drained()) return;
@@ -71,7 +72,7 @@ void OverlayWriter::Loop() {
     try {
       pipeline::RenderOverlay(frame.labels, frame.base.empty() ? nullptr : &frame.base,
                               frame.objects, &image);
-      io::WriteColorPng(path, image);
+      png.WriteColor(path, image);
       written_.fetch_add(1);
     } catch (const std::exception& e) {
       const uint64_t n = failures_.fetch_add(1) + 1;

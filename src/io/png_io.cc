@@ -1,11 +1,13 @@
 #include "clutterseg/io/png_io.h"
 
+#include <libdeflate.h>
 #include <png.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <csetjmp>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <memory>
@@ -159,44 +161,41 @@ bool DecodePng(std::FILE* file, size_t file_size, Want want, const core::FrameLi
   return true;
 }
 
-struct WriteGuard {
-  png_structp png{nullptr};
-  png_infop info{nullptr};
-  ~WriteGuard() {
-    if (png != nullptr) png_destroy_write_struct(&png, info != nullptr ? &info : nullptr);
-  }
-};
+// Writing. PNG's container is a signature and three chunks (IHDR, one IDAT holding the zlib
+// stream of the filtered rows, IEND), each with its CRC-32; libdeflate compresses the stream
+// and computes the CRCs. On a 640x480 RGB frame its level 1 with the Sub filter writes in
+// about a quarter of the time zlib's level 1 took (through libpng), and a smaller file.
+constexpr uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+constexpr int kPngColorGrey = 0;
+constexpr int kPngColorRgb = 2;
+constexpr uint8_t kPngFilterSub = 1;
 
-// Encodes rows of `bytes` (big-endian for 16-bit) as a PNG. Returns false with `err` filled.
-bool EncodePng(std::FILE* file, int width, int height, int bit_depth, int color_type,
-               std::vector<uint8_t>* bytes, PngError* err) {
-  WriteGuard g;
-  std::vector<png_bytep> rows(static_cast<size_t>(height));
-  g.png = png_create_write_struct(PNG_LIBPNG_VER_STRING, err, OnPngError, OnPngWarning);
-  if (g.png == nullptr) {
-    std::snprintf(err->message, sizeof err->message, "cannot create a PNG writer");
-    return false;
-  }
-  g.info = png_create_info_struct(g.png);
-  if (g.info == nullptr) {
-    std::snprintf(err->message, sizeof err->message, "cannot create a PNG writer");
-    return false;
-  }
-  const size_t row_bytes = bytes->size() / (height > 0 ? static_cast<size_t>(height) : 1);
-  for (size_t v = 0; v < rows.size(); ++v) rows[v] = bytes->data() + row_bytes * v;
-  if (setjmp(png_jmpbuf(g.png))) return false;
-  png_init_io(g.png, file);
-  png_set_IHDR(g.png, g.info, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height),
-               bit_depth, color_type, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-               PNG_FILTER_TYPE_DEFAULT);
-  // Speed over size: per-frame outputs. On a 640x480 RGB frame this writes in about a ninth
-  // of the time of libpng's defaults (level 6, adaptive filters) for a 26% larger file.
-  png_set_compression_level(g.png, 1);
-  png_set_filter(g.png, PNG_FILTER_TYPE_BASE, PNG_FILTER_SUB);
-  png_write_info(g.png, g.info);
-  png_write_image(g.png, rows.data());
-  png_write_end(g.png, nullptr);
-  return true;
+void PutU32(uint32_t v, uint8_t* out) {
+  out[0] = static_cast<uint8_t>(v >> 24);
+  out[1] = static_cast<uint8_t>(v >> 16);
+  out[2] = static_cast<uint8_t>(v >> 8);
+  out[3] = static_cast<uint8_t>(v);
+}
+
+// Appends a chunk: length, type, data, CRC-32 of type and data.
+void AppendChunk(const char type[4], const uint8_t* data, size_t size, std::vector<uint8_t>* out) {
+  const size_t at = out->size();
+  out->resize(at + 12 + size);
+  uint8_t* p = out->data() + at;
+  PutU32(static_cast<uint32_t>(size), p);
+  std::memcpy(p + 4, type, 4);
+  if (size > 0) std::memcpy(p + 8, data, size);
+  PutU32(static_cast<uint32_t>(libdeflate_crc32(0, p + 4, size + 4)), p + 8 + size);
+}
+
+// The Sub filter of one row of `row_bytes` bytes with `bpp` bytes per pixel: each byte minus
+// the byte of the pixel to its left; `out` gets the filter type and the filtered bytes.
+void FilterSub(const uint8_t* row, size_t row_bytes, size_t bpp, uint8_t* out) {
+  out[0] = kPngFilterSub;
+  const size_t first = std::min(bpp, row_bytes);
+  std::memcpy(out + 1, row, first);
+  for (size_t i = first; i < row_bytes; ++i)
+    out[1 + i] = static_cast<uint8_t>(row[i] - row[i - bpp]);
 }
 
 FilePtr OpenForRead(const std::string& path, size_t* size) {
@@ -228,25 +227,6 @@ void CheckWritable(const std::string& path, int width, int height, uint64_t byte
   if (const std::optional<std::string> too_large =
           limits.CheckImage(width, height, bytes_per_pixel)) {
     throw core::FrameTooLargeError(path + ": cannot write an image: size " + *too_large);
-  }
-}
-
-void WritePngFile(const std::string& path, int width, int height, int bit_depth, int color_type,
-                  std::vector<uint8_t>* bytes) {
-  if (width <= 0 || height <= 0) Fail(path, "cannot write an empty image");
-  FilePtr f(std::fopen(path.c_str(), "wb"));
-  if (f == nullptr) Fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
-  PngError err;
-  errno = 0;
-  if (!EncodePng(f.get(), width, height, bit_depth, color_type, bytes, &err)) {
-    const int saved_errno = errno;
-    Fail(path, std::string("cannot write PNG: ") + err.message +
-                   (saved_errno != 0 ? std::string(": ") + std::strerror(saved_errno) : ""));
-  }
-  std::FILE* raw = f.release();
-  const bool flushed = std::ferror(raw) == 0;
-  if (std::fclose(raw) != 0 || !flushed) {
-    Fail(path, std::string("write failed: ") + std::strerror(errno));
   }
 }
 
@@ -417,29 +397,91 @@ core::ColorImage ReadColorPng(const std::string& path, const core::FrameLimits& 
   return image;
 }
 
-void WriteColorPng(const std::string& path, const core::ColorImage& image,
-                   const core::FrameLimits& limits) {
+PngWriter::PngWriter() : compressor_(libdeflate_alloc_compressor(1)) {
+  if (compressor_ == nullptr) throw std::bad_alloc();
+}
+
+PngWriter::~PngWriter() { libdeflate_free_compressor(compressor_); }
+
+void PngWriter::WriteColor(const std::string& path, const core::ColorImage& image,
+                           const core::FrameLimits& limits) {
   CLUTTERSEG_DEMAND(image.data.size() == static_cast<size_t>(image.width) * image.height);
   CheckWritable(path, image.width, image.height, 3, limits);
-  std::vector<uint8_t> bytes(image.data.size() * 3);
-  for (size_t i = 0; i < image.data.size(); ++i) {
-    bytes[3 * i] = image.data[i].r;
-    bytes[3 * i + 1] = image.data[i].g;
-    bytes[3 * i + 2] = image.data[i].b;
+  const auto width = static_cast<size_t>(image.width);
+  const size_t row_bytes = width * 3;
+  filtered_.resize((row_bytes + 1) * static_cast<size_t>(image.height));
+  row_.resize(row_bytes);
+  for (size_t v = 0; v < static_cast<size_t>(image.height); ++v) {
+    const core::Rgb8* in = image.data.data() + v * width;
+    for (size_t u = 0; u < width; ++u) {
+      row_[3 * u] = in[u].r;
+      row_[3 * u + 1] = in[u].g;
+      row_[3 * u + 2] = in[u].b;
+    }
+    FilterSub(row_.data(), row_bytes, 3, filtered_.data() + v * (row_bytes + 1));
   }
-  WritePngFile(path, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, &bytes);
+  Finish(path, image.width, image.height, 8, kPngColorRgb);
+}
+
+void PngWriter::WriteDepth(const std::string& path, const core::DepthImage& image,
+                           const core::FrameLimits& limits) {
+  CLUTTERSEG_DEMAND(image.data.size() == static_cast<size_t>(image.width) * image.height);
+  CheckWritable(path, image.width, image.height, 2, limits);
+  const auto width = static_cast<size_t>(image.width);
+  const size_t row_bytes = width * 2;
+  filtered_.resize((row_bytes + 1) * static_cast<size_t>(image.height));
+  row_.resize(row_bytes);
+  for (size_t v = 0; v < static_cast<size_t>(image.height); ++v) {
+    const uint16_t* in = image.data.data() + v * width;
+    for (size_t u = 0; u < width; ++u) {  // big-endian, as PNG requires
+      row_[2 * u] = static_cast<uint8_t>(in[u] >> 8);
+      row_[2 * u + 1] = static_cast<uint8_t>(in[u] & 0xff);
+    }
+    FilterSub(row_.data(), row_bytes, 2, filtered_.data() + v * (row_bytes + 1));
+  }
+  Finish(path, image.width, image.height, 16, kPngColorGrey);
+}
+
+void PngWriter::Finish(const std::string& path, int width, int height, int bit_depth,
+                       int color_type) {
+  const size_t bound = libdeflate_zlib_compress_bound(compressor_, filtered_.size());
+  stream_.resize(bound);
+  const size_t stream_size = libdeflate_zlib_compress(compressor_, filtered_.data(),
+                                                      filtered_.size(), stream_.data(), bound);
+  if (stream_size == 0) Fail(path, "cannot write PNG: compression failed");
+  uint8_t header[13];
+  PutU32(static_cast<uint32_t>(width), header);
+  PutU32(static_cast<uint32_t>(height), header + 4);
+  header[8] = static_cast<uint8_t>(bit_depth);
+  header[9] = static_cast<uint8_t>(color_type);
+  header[10] = 0;  // compression method: deflate
+  header[11] = 0;  // filter method 0 (a filter type per row)
+  header[12] = 0;  // not interlaced
+  file_.resize(sizeof kPngSignature);
+  std::memcpy(file_.data(), kPngSignature, sizeof kPngSignature);
+  AppendChunk("IHDR", header, sizeof header, &file_);
+  AppendChunk("IDAT", stream_.data(), stream_size, &file_);
+  AppendChunk("IEND", nullptr, 0, &file_);
+
+  FilePtr f(std::fopen(path.c_str(), "wb"));
+  if (f == nullptr) Fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
+  errno = 0;
+  const bool written = std::fwrite(file_.data(), 1, file_.size(), f.get()) == file_.size();
+  std::FILE* raw = f.release();
+  const bool flushed = written && std::ferror(raw) == 0;
+  if (std::fclose(raw) != 0 || !flushed) {
+    Fail(path, std::string("write failed: ") + std::strerror(errno != 0 ? errno : EIO));
+  }
+}
+
+void WriteColorPng(const std::string& path, const core::ColorImage& image,
+                   const core::FrameLimits& limits) {
+  PngWriter().WriteColor(path, image, limits);
 }
 
 void WriteDepthPng(const std::string& path, const core::DepthImage& image,
                    const core::FrameLimits& limits) {
-  CLUTTERSEG_DEMAND(image.data.size() == static_cast<size_t>(image.width) * image.height);
-  CheckWritable(path, image.width, image.height, 2, limits);
-  std::vector<uint8_t> bytes(image.data.size() * 2);
-  for (size_t i = 0; i < image.data.size(); ++i) {
-    bytes[2 * i] = static_cast<uint8_t>(image.data[i] >> 8);
-    bytes[2 * i + 1] = static_cast<uint8_t>(image.data[i] & 0xff);
-  }
-  WritePngFile(path, image.width, image.height, 16, PNG_COLOR_TYPE_GRAY, &bytes);
+  PngWriter().WriteDepth(path, image, limits);
 }
 
 core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path) {

@@ -92,6 +92,50 @@ TEST(PngTest, ColourRoundTripIsExact) {
   }
 }
 
+// One writer, reused: a large frame, then smaller and one-pixel-wide images, colour and depth
+// interleaved; libpng (which checks every chunk's CRC and the zlib stream's Adler-32) reads
+// each back exactly. A full disk is an error naming the file.
+TEST(PngTest, OneWriterWritesFramesOfEverySizeExactly) {
+  PngWriter writer;
+  std::mt19937 rng(5);
+  const std::filesystem::path dir = testing::ScratchDir("png_writer");
+  const int sizes[][2] = {{640, 480}, {19, 11}, {1, 7}, {2, 1}, {640, 480}};
+  int k = 0;
+  for (const auto& wh : sizes) {
+    core::ColorImage image(wh[0], wh[1]);
+    // Smooth gradients with noise, as overlays are, and one random row: both filter paths.
+    for (int v = 0; v < wh[1]; ++v) {
+      for (int u = 0; u < wh[0]; ++u) {
+        const auto noise = static_cast<uint8_t>(v == 3 ? rng() : rng() % 4);
+        image.at(u, v) = core::Rgb8{static_cast<uint8_t>(u + noise), static_cast<uint8_t>(v),
+                                    static_cast<uint8_t>(u ^ v)};
+      }
+    }
+    const std::string colour_path = (dir / ("c" + std::to_string(k) + ".png")).string();
+    writer.WriteColor(colour_path, image);
+    const core::ColorImage back = ReadColorPng(colour_path);
+    ASSERT_EQ(back.width, wh[0]);
+    ASSERT_EQ(back.height, wh[1]);
+    for (size_t i = 0; i < image.size(); ++i) {
+      ASSERT_EQ(back.data[i].r, image.data[i].r) << colour_path << " pixel " << i;
+      ASSERT_EQ(back.data[i].g, image.data[i].g) << colour_path << " pixel " << i;
+      ASSERT_EQ(back.data[i].b, image.data[i].b) << colour_path << " pixel " << i;
+    }
+    core::DepthImage depth(wh[0], wh[1]);
+    for (uint16_t& d : depth.data) d = static_cast<uint16_t>(rng());
+    const std::string depth_path = (dir / ("d" + std::to_string(k) + ".png")).string();
+    writer.WriteDepth(depth_path, depth);
+    EXPECT_EQ(ReadDepthPng(depth_path).data, depth.data) << depth_path;
+    ++k;
+  }
+  ExpectFailure([&] { writer.WriteColor("/dev/full", core::ColorImage(64, 64)); }, "/dev/full",
+                "write failed");
+  // The writer still works after a failure.
+  const std::string after = (dir / "after.png").string();
+  writer.WriteColor(after, core::ColorImage(3, 2));
+  EXPECT_EQ(ReadColorPng(after).width, 3);
+}
+
 TEST(PngTest, ColourReadExpandsGreyRgbaAndPalette) {
   const auto dir = testing::ScratchDir("png_formats");
   const std::string grey = (dir / "grey.png").string();

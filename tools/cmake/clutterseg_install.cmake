@@ -120,7 +120,7 @@ set(CPACK_DEBIAN_DAEMON_PACKAGE_CONTROL_EXTRA "${PROJECT_SOURCE_DIR}/tools/packa
     "${PROJECT_SOURCE_DIR}/tools/packaging/postrm")
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME libclutterseg-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS
-    "clutterseg-lcmtypes (= ${PROJECT_VERSION}), libeigen3-dev, libpng-dev, libyaml-cpp-dev, liblcm-dev")
+    "clutterseg-lcmtypes (= ${PROJECT_VERSION}), libeigen3-dev, libpng-dev, libdeflate-dev, libyaml-cpp-dev, liblcm-dev")
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
 set(CPACK_DEBIAN_DEV_DESCRIPTION
     "clutterseg segmentation library (development files)\n Headers <clutterseg/...>, static libraries, the CMake package\n (find_package(clutterseg), targets clutterseg::...) and clutterseg.pc.")
