@@ -6,6 +6,11 @@
 #include <exception>
 #include <memory>
 
+#if defined(__linux__)
+#include <pthread.h>
+#include <sched.h>
+#endif
+
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
 #endif
@@ -69,8 +74,20 @@ struct ThreadPool::ParallelJob {
 ThreadPool::ThreadPool(int num_threads) : ring_(kInitialRing) {
   int n = num_threads > 0 ? num_threads : static_cast<int>(std::thread::hardware_concurrency());
   n = std::max(1, n);
+#if defined(__linux__)
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (n > 1 && sched_getaffinity(0, sizeof set, &set) == 0) {
+    for (int c = 0; c < CPU_SETSIZE; ++c) {
+      if (CPU_ISSET(c, &set)) allowed_cpus_.push_back(c);
+    }
+  }
+#endif
+  flags_ = std::make_unique<WorkerFlags[]>(static_cast<size_t>(n));
   workers_.reserve(static_cast<size_t>(n - 1));
-  for (int i = 0; i < n - 1; ++i) workers_.emplace_back([this] { WorkerLoop(); });
+  for (int i = 0; i < n - 1; ++i) {
+    workers_.emplace_back([this, i] { WorkerLoop(static_cast<size_t>(i)); });
+  }
 }
 
 ThreadPool::~ThreadPool() {
@@ -109,7 +126,44 @@ bool ThreadPool::SpinUntil(const Ready& ready) {
   }
 }
 
-void ThreadPool::WorkerLoop() {
+void ThreadPool::SteerSleepers() {
+#if defined(__linux__)
+  if (allowed_cpus_.size() < 2) return;
+  const int here = sched_getcpu();
+  if (here < 0) return;
+  bool any = false;
+  for (size_t i = 0; i < workers_.size() && !any; ++i) {
+    any = flags_[i].sleeping.load(std::memory_order_relaxed);
+  }
+  if (!any) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (const int c : allowed_cpus_) {
+    if (c != here) CPU_SET(c, &set);
+  }
+  for (size_t i = 0; i < workers_.size(); ++i) {
+    if (!flags_[i].sleeping.load(std::memory_order_relaxed)) continue;
+    // Best effort: a failure (a CPU taken away since) leaves the worker where it was.
+    if (pthread_setaffinity_np(workers_[i].native_handle(), sizeof set, &set) == 0) {
+      flags_[i].steered.store(true, std::memory_order_release);
+    }
+  }
+#endif
+}
+
+void ThreadPool::Unsteer(size_t index) {
+#if defined(__linux__)
+  if (!flags_[index].steered.exchange(false, std::memory_order_acq_rel)) return;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  for (const int c : allowed_cpus_) CPU_SET(c, &set);
+  (void)pthread_setaffinity_np(pthread_self(), sizeof set, &set);
+#else
+  (void)index;
+#endif
+}
+
+void ThreadPool::WorkerLoop(size_t index) {
   t_current_pool = this;
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
@@ -123,7 +177,15 @@ void ThreadPool::WorkerLoop() {
                active_callers_.load(std::memory_order_relaxed) > 1;
       });
       lock.lock();
+      flags_[index].sleeping.store(true, std::memory_order_relaxed);
       cv_.wait(lock, [this] { return stopping_ || count_ > 0; });
+      flags_[index].sleeping.store(false, std::memory_order_relaxed);
+      if (flags_[index].steered.load(std::memory_order_acquire)) {
+        lock.unlock();
+        Unsteer(index);
+        lock.lock();
+        continue;  // the task may have been taken or cancelled meanwhile
+      }
     }
     if (count_ == 0) return;  // stopping and drained
     Task task = std::move(ring_[head_]);
@@ -175,6 +237,7 @@ std::future<void> ThreadPool::Submit(std::function<void()> task) {
     (*packaged)();
     return result;
   }
+  SteerSleepers();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     PushLocked(Task{nullptr, [packaged] { (*packaged)(); }});
@@ -195,6 +258,7 @@ void ThreadPool::ParallelFor(size_t n, size_t grain, FunctionRef<void(size_t, si
 
   const size_t helpers = std::min(workers_.size(), chunks - 1);
   ParallelJob job(fn, n, grain, chunks, helpers + 1);
+  SteerSleepers();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (size_t i = 0; i < helpers; ++i) PushLocked(Task{&job, {}});

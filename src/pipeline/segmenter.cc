@@ -24,18 +24,20 @@ double MsSince(Clock::time_point t0) {
 
 // The stages, each built once from its params and the pool, and their outputs.
 struct Segmenter::Impl {
-  Impl(const SegmenterParams& p, core::ThreadPool* pool)
+  Impl(const SegmenterParams& p, core::ThreadPool* thread_pool)
       : params((p.ValidateOrThrow(), p)),
-        points(p.points, pool),
-        support(p.support, pool),
-        supervoxelizer(p.supervoxel, pool),
-        features(pool),
-        linkage(p.linkage, pool),
+        pool(thread_pool),
+        points(p.points, thread_pool),
+        support(p.support, thread_pool),
+        supervoxelizer(p.supervoxel, thread_pool),
+        features(thread_pool),
+        linkage(p.linkage, thread_pool),
         plane_labeler(p.planes),
-        refiner(p.objects, pool),
-        objects(pool) {}
+        refiner(p.objects, thread_pool),
+        objects(thread_pool) {}
 
   const SegmenterParams params;
+  core::ThreadPool* pool;  // may be null
   WorkingCloudBuilder points;
   geometry::PlanarRegionFinder support;
   supervoxel::Supervoxelizer supervoxelizer;
@@ -140,10 +142,19 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
     cues.voxels = &m.supervoxelizer.voxels();
     cues.voxel_supervoxel = &m.supervoxelizer.voxel_label();
   }
-  m.linkage.Compute(m.sv, m.patch, cues, &m.link);
+  // The linkage and the plane labelling read the same supervoxels and features and nothing of
+  // each other. They run as the two chunks of one parallel loop: this thread labels the
+  // planes (serial work: hypotheses, then alpha-expansion) while a pool worker computes the
+  // linkage, whose own loops then run inline on that worker in the same chunks (the same
+  // result). Without a free worker this thread runs both, one after the other.
+  core::ForChunks(m.pool, 2, 1, [&](size_t begin, size_t) {
+    if (begin == 0) {
+      m.plane_labeler.Compute(m.sv, m.patch, m.fixed_planes, &m.planes);
+    } else {
+      m.linkage.Compute(m.sv, m.patch, cues, &m.link);
+    }
+  });
   times[Stage::kLinkage] = m.link.time_ms;
-
-  m.plane_labeler.Compute(m.sv, m.patch, m.fixed_planes, &m.planes);
   times[Stage::kPlanes] = m.planes.hypotheses_ms;
   times[Stage::kExpansion] = m.planes.expansion_ms;
 

@@ -39,8 +39,10 @@ const std::array<StageInfo, kNumStages>& StageTable();
 /// Name of `stage` (StageTable()[stage].name).
 std::string_view StageName(Stage stage);
 
-/// Wall times of the stages of one frame, milliseconds. The stages are disjoint; total_ms is
-/// the whole Process call (the stages plus a little bookkeeping).
+/// Wall times of the stages of one frame, milliseconds; total_ms is the whole Process call.
+/// The stages run one after the other except linkage, which runs beside planes and expansion
+/// when the segmenter's pool has a free worker (Segmenter): the stage times then add up to
+/// more than total_ms by about the linkage's time.
 struct StageTimes {
   std::array<double, kNumStages> ms{};
   double total_ms{0.0};

@@ -1,5 +1,7 @@
 #include "clutterseg/core/thread_pool.h"
 
+#include <pthread.h>
+#include <sched.h>
 #include <time.h>
 
 #include <algorithm>
@@ -203,6 +205,63 @@ TEST(ThreadPool, IdleWorkersStopSpinningAndBlock) {
   // A spinning worker would use about 200 ms of CPU here.
   EXPECT_LT(idle_cpu_ms, 40.0);
   EXPECT_EQ(out.back(), static_cast<double>(out.size() - 1));
+}
+
+// A worker woken from its block is kept off its caller's CPU only until it runs: inside its
+// chunk its affinity is the process's again, and it ran on another CPU than its caller (the
+// caller waits in its own chunk until the worker's has run, so both ran at once). A pool made
+// on a thread allowed one CPU steers nothing and still covers every chunk.
+TEST(ThreadPool, WokenWorkerRunsBesideItsCallerWithItsCpusRestored) {
+  cpu_set_t process;
+  CPU_ZERO(&process);
+  ASSERT_EQ(sched_getaffinity(0, sizeof process, &process), 0);
+  if (CPU_COUNT(&process) < 2) GTEST_SKIP() << "needs two CPUs";
+  ThreadPool dut(2);
+  const auto spin = std::chrono::microseconds(ThreadPool::kSpinMicroseconds);
+  for (int round = 0; round < 3; ++round) {
+    std::this_thread::sleep_for(10 * spin);  // the worker blocks
+    std::atomic<int> worker_cpu{-1};
+    std::atomic<bool> worker_mask_full{false};
+    int caller_cpu = -1;
+    dut.ParallelFor(2, 1, [&](size_t b, size_t) {
+      if (b == 0) {
+        caller_cpu = sched_getcpu();
+        const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+        while (worker_cpu.load() < 0 && std::chrono::steady_clock::now() < deadline) {
+        }
+        return;
+      }
+      cpu_set_t mine;
+      CPU_ZERO(&mine);
+      pthread_getaffinity_np(pthread_self(), sizeof mine, &mine);
+      worker_mask_full.store(CPU_EQUAL(&mine, &process) != 0);
+      worker_cpu.store(sched_getcpu());
+    });
+    ASSERT_GE(worker_cpu.load(), 0) << "round " << round << ": the worker never ran chunk 1";
+    EXPECT_NE(worker_cpu.load(), caller_cpu) << "round " << round;
+    EXPECT_TRUE(worker_mask_full.load()) << "round " << round << ": the worker stayed steered";
+  }
+
+  // One CPU allowed: nothing to steer to.
+  std::thread single([&] {
+    cpu_set_t one;
+    CPU_ZERO(&one);
+    for (int c = 0; c < CPU_SETSIZE; ++c) {
+      if (CPU_ISSET(c, &process)) {
+        CPU_SET(c, &one);
+        break;
+      }
+    }
+    ASSERT_EQ(pthread_setaffinity_np(pthread_self(), sizeof one, &one), 0);
+    ThreadPool pinned(2);
+    std::this_thread::sleep_for(10 * spin);
+    std::vector<int> hits(64, 0);
+    pinned.ParallelFor(hits.size(), 4, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) ++hits[i];
+    });
+    EXPECT_EQ(std::count(hits.begin(), hits.end(), 1), 64);
+  });
+  single.join();
 }
 
 }  // namespace
