@@ -22,8 +22,10 @@
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
 #include "clutterseg/optimize/planes.h"
 #include "clutterseg/pipeline/objects.h"
+#include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/pipeline/refine.h"
 #include "clutterseg/pipeline/segmenter.h"
 #include "clutterseg/pipeline/segmenter_params.h"
@@ -283,6 +285,29 @@ void BM_WritePcd(benchmark::State& state) {
   SetLabel(state, *in);
 }
 
+// One overlay as the daemon's overlay sink makes it: the labels drawn over the frame's image
+// with boxes and a legend, then written as a PNG by a reused io::PngWriter (libdeflate level
+// 1) to a temporary file. Arg `write`: 0 renders only, 1 renders and writes.
+void BM_Overlay(benchmark::State& state) {
+  StageInputs* in = GetInputs(state);
+  if (in == nullptr) return;
+  core::ColorImage base;
+  pipeline::CloudToImage(in->cloud, &base);
+  std::vector<pipeline::OverlayObject> objects;
+  pipeline::OverlayObjectsFrom(in->result.objects, &objects);
+  core::ColorImage image;
+  io::PngWriter writer;
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "clutterseg_bench_overlay.png").string();
+  for (auto _ : state) {
+    pipeline::RenderOverlay(in->result.labels, &base, objects, &image);
+    if (state.range(2) != 0) writer.WriteColor(path, image);
+    benchmark::DoNotOptimize(image.data.data());
+  }
+  std::filesystem::remove(path);
+  SetLabel(state, *in);
+}
+
 #if CLUTTERSEG_BENCH_HAVE_DAEMON
 daemon::FrameInfo MakeInfo(const StageInputs& in) {
   daemon::FrameInfo info;
@@ -349,6 +374,11 @@ BENCHMARK(BM_Segmenter)->Apply(StageArgs);
 BENCHMARK(BM_DepthToPointCloud)->Apply(StageArgs);
 BENCHMARK(BM_ReadPcd)->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(BM_WritePcd)->Args({0, 1})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_Overlay)
+    ->ArgNames({"frame", "threads", "write"})
+    ->ArgsProduct({{0, 1}, {1}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 #if CLUTTERSEG_BENCH_HAVE_DAEMON
 BENCHMARK(BM_EncodeObjects)->Apply(StageArgs)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_EncodeLabels)
