@@ -22,6 +22,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 constexpr float kColorNormalizer = 255.f;
 constexpr size_t kPointGrain = 16384;
 constexpr size_t kMaxSeedChunks = 8;
+constexpr size_t kSeedCellGrain = 4096;  // fewest voxels per chunk of the seed-cell pass
 
 using Clock = std::chrono::steady_clock;
 
@@ -192,27 +193,57 @@ void Supervoxelizer::SelectSeeds() {
   const float inv_cell = 1.f / cell;
 
   // One candidate per occupied seed cell: the voxel nearest the cell centre (lowest index on
-  // ties, as voxels are visited in ascending order).
+  // ties). Each chunk of voxels (fixed by the voxel count, not the pool) finds its own cells'
+  // best voxels; the chunks are then merged in ascending voxel order, a later chunk winning a
+  // cell only with a strictly smaller distance, which is the serial visit's result. Voxels are
+  // in (x, y, z) key order, so the chunks are slabs that share few cells.
+  const size_t cell_grain =
+      std::max<size_t>(kSeedCellGrain, (num_voxels + kMaxSeedChunks - 1) / kMaxSeedChunks);
+  const size_t num_cell_chunks = core::ThreadPool::NumChunks(num_voxels, cell_grain);
+  if (chunk_cells_.size() < num_cell_chunks) chunk_cells_.resize(num_cell_chunks);
+  ForChunks(pool_, num_voxels, cell_grain, [&](size_t b, size_t e) {
+    ChunkCells& cells = chunk_cells_[b / cell_grain];
+    cells.map.Clear((e - b) / 8 + 16);
+    cells.key.clear();
+    cells.voxel.clear();
+    cells.dist.clear();
+    for (size_t v = b; v < e; ++v) {
+      const core::Vec3f& c = grid_.centroid[v];
+      int32_t ix, iy, iz;
+      const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
+      const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
+                               (static_cast<float>(iy) + 0.5f) * cell,
+                               (static_cast<float>(iz) + 0.5f) * cell};
+      const float d = Dist2(c, centre);
+      bool inserted = false;
+      const uint32_t index =
+          cells.map.FindOrInsert(key, static_cast<uint32_t>(cells.voxel.size()), &inserted);
+      if (inserted) {
+        cells.key.push_back(key);
+        cells.voxel.push_back(static_cast<uint32_t>(v));
+        cells.dist.push_back(d);
+      } else if (d < cells.dist[index]) {
+        cells.voxel[index] = static_cast<uint32_t>(v);
+        cells.dist[index] = d;
+      }
+    }
+  });
   cell_map_.Clear(num_voxels / 8 + 16);
   cell_best_voxel_.clear();
   cell_best_dist_.clear();
-  for (size_t v = 0; v < num_voxels; ++v) {
-    const core::Vec3f& c = grid_.centroid[v];
-    int32_t ix, iy, iz;
-    const uint64_t key = CellKey(c, inv_cell, &ix, &iy, &iz);
-    const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
-                             (static_cast<float>(iy) + 0.5f) * cell,
-                             (static_cast<float>(iz) + 0.5f) * cell};
-    const float d = Dist2(c, centre);
-    bool inserted = false;
-    const uint32_t cell_index =
-        cell_map_.FindOrInsert(key, static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
-    if (inserted) {
-      cell_best_voxel_.push_back(static_cast<uint32_t>(v));
-      cell_best_dist_.push_back(d);
-    } else if (d < cell_best_dist_[cell_index]) {
-      cell_best_voxel_[cell_index] = static_cast<uint32_t>(v);
-      cell_best_dist_[cell_index] = d;
+  for (size_t k = 0; k < num_cell_chunks; ++k) {
+    const ChunkCells& cells = chunk_cells_[k];
+    for (size_t c = 0; c < cells.key.size(); ++c) {
+      bool inserted = false;
+      const uint32_t index = cell_map_.FindOrInsert(
+          cells.key[c], static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
+      if (inserted) {
+        cell_best_voxel_.push_back(cells.voxel[c]);
+        cell_best_dist_.push_back(cells.dist[c]);
+      } else if (cells.dist[c] < cell_best_dist_[index]) {
+        cell_best_voxel_[index] = cells.voxel[c];
+        cell_best_dist_[index] = cells.dist[c];
+      }
     }
   }
   candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());

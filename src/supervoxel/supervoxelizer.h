@@ -90,7 +90,14 @@ class Supervoxelizer {
   float spatial_weight_{0.f};  // ws / (3 R^2)
   float color_weight_{0.f};    // wc / m^2
 
-  // Seeding.
+  // Seeding. Per chunk of voxels, its seed cells in first-visit order and their best voxels.
+  struct ChunkCells {
+    geometry::KeyIndexMap map;
+    std::vector<uint64_t> key;
+    std::vector<uint32_t> voxel;
+    std::vector<float> dist;
+  };
+  std::vector<ChunkCells> chunk_cells_;
   geometry::KeyIndexMap cell_map_;
   std::vector<uint32_t> cell_best_voxel_;
   std::vector<float> cell_best_dist_;
