@@ -187,6 +187,26 @@ void Supervoxelizer::PrepareChunkScratch(size_t num_chunks) {
   }
 }
 
+void Supervoxelizer::SeedCells::Clear(size_t expected_cells) {
+  map.Clear(expected_cells);
+  key.clear();
+  voxel.clear();
+  dist.clear();
+}
+
+void Supervoxelizer::SeedCells::Offer(uint64_t k, uint32_t v, float d) {
+  bool inserted = false;
+  const uint32_t index = map.FindOrInsert(k, static_cast<uint32_t>(voxel.size()), &inserted);
+  if (inserted) {
+    key.push_back(k);
+    voxel.push_back(v);
+    dist.push_back(d);
+  } else if (d < dist[index]) {
+    voxel[index] = v;
+    dist[index] = d;
+  }
+}
+
 void Supervoxelizer::SelectSeeds() {
   const size_t num_voxels = grid_.size();
   const float cell = params_.seed_resolution_m;
@@ -202,11 +222,8 @@ void Supervoxelizer::SelectSeeds() {
   const size_t num_cell_chunks = core::ThreadPool::NumChunks(num_voxels, cell_grain);
   if (chunk_cells_.size() < num_cell_chunks) chunk_cells_.resize(num_cell_chunks);
   ForChunks(pool_, num_voxels, cell_grain, [&](size_t b, size_t e) {
-    ChunkCells& cells = chunk_cells_[b / cell_grain];
-    cells.map.Clear((e - b) / 8 + 16);
-    cells.key.clear();
-    cells.voxel.clear();
-    cells.dist.clear();
+    SeedCells& cells = chunk_cells_[b / cell_grain];
+    cells.Clear((e - b) / 8 + 16);
     for (size_t v = b; v < e; ++v) {
       const core::Vec3f& c = grid_.centroid[v];
       int32_t ix, iy, iz;
@@ -214,39 +231,17 @@ void Supervoxelizer::SelectSeeds() {
       const core::Vec3f centre{(static_cast<float>(ix) + 0.5f) * cell,
                                (static_cast<float>(iy) + 0.5f) * cell,
                                (static_cast<float>(iz) + 0.5f) * cell};
-      const float d = Dist2(c, centre);
-      bool inserted = false;
-      const uint32_t index =
-          cells.map.FindOrInsert(key, static_cast<uint32_t>(cells.voxel.size()), &inserted);
-      if (inserted) {
-        cells.key.push_back(key);
-        cells.voxel.push_back(static_cast<uint32_t>(v));
-        cells.dist.push_back(d);
-      } else if (d < cells.dist[index]) {
-        cells.voxel[index] = static_cast<uint32_t>(v);
-        cells.dist[index] = d;
-      }
+      cells.Offer(key, static_cast<uint32_t>(v), Dist2(c, centre));
     }
   });
-  cell_map_.Clear(num_voxels / 8 + 16);
-  cell_best_voxel_.clear();
-  cell_best_dist_.clear();
+  seed_cells_.Clear(num_voxels / 8 + 16);
   for (size_t k = 0; k < num_cell_chunks; ++k) {
-    const ChunkCells& cells = chunk_cells_[k];
+    const SeedCells& cells = chunk_cells_[k];
     for (size_t c = 0; c < cells.key.size(); ++c) {
-      bool inserted = false;
-      const uint32_t index = cell_map_.FindOrInsert(
-          cells.key[c], static_cast<uint32_t>(cell_best_voxel_.size()), &inserted);
-      if (inserted) {
-        cell_best_voxel_.push_back(cells.voxel[c]);
-        cell_best_dist_.push_back(cells.dist[c]);
-      } else if (cells.dist[c] < cell_best_dist_[index]) {
-        cell_best_voxel_[index] = cells.voxel[c];
-        cell_best_dist_[index] = cells.dist[c];
-      }
+      seed_cells_.Offer(cells.key[c], cells.voxel[c], cells.dist[c]);
     }
   }
-  candidates_.assign(cell_best_voxel_.begin(), cell_best_voxel_.end());
+  candidates_.assign(seed_cells_.voxel.begin(), seed_cells_.voxel.end());
   std::sort(candidates_.begin(), candidates_.end());
 
   // Occupancy: voxels within seed_resolution / 2 of the candidate, reached through the voxel

@@ -90,17 +90,18 @@ class Supervoxelizer {
   float spatial_weight_{0.f};  // ws / (3 R^2)
   float color_weight_{0.f};    // wc / m^2
 
-  // Seeding. Per chunk of voxels, its seed cells in first-visit order and their best voxels.
-  struct ChunkCells {
-    geometry::KeyIndexMap map;
+  // Seeding. Seed cells in first-offer order, each with the voxel nearest its centre.
+  struct SeedCells {
+    geometry::KeyIndexMap map;  // cell key -> index into the arrays below
     std::vector<uint64_t> key;
     std::vector<uint32_t> voxel;
-    std::vector<float> dist;
+    std::vector<float> dist;  // squared distance of `voxel` to the cell centre, m^2
+    void Clear(size_t expected_cells);
+    // Keeps `v` for cell `k` when the cell is new or `d` is strictly smaller than its best.
+    void Offer(uint64_t k, uint32_t v, float d);
   };
-  std::vector<ChunkCells> chunk_cells_;
-  geometry::KeyIndexMap cell_map_;
-  std::vector<uint32_t> cell_best_voxel_;
-  std::vector<float> cell_best_dist_;
+  std::vector<SeedCells> chunk_cells_;  // per chunk of voxels
+  SeedCells seed_cells_;                // all chunks merged in voxel order
   std::vector<uint32_t> candidates_;
   std::vector<uint8_t> candidate_keep_;
   // Per chunk of work: visit marks over the voxels, all zero between uses, and a queue used up
