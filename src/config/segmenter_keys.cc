@@ -25,6 +25,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(support, max_normal_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(support, max_region_rms),
       CLUTTERSEG_SEGMENTER_KEY(support, margin_px),
+      CLUTTERSEG_SEGMENTER_KEY(support, ring_min_cluster_px),
       CLUTTERSEG_SEGMENTER_KEY(support, max_point_distance_rms),
 
       CLUTTERSEG_GRID_KEY(voxel_resolution_m),

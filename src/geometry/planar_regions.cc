@@ -6,16 +6,70 @@
 
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/core/scoped_timer.h"
+#include "clutterseg/core/simd_points.h"
 #include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::geometry {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-constexpr size_t kTakenBlockGrain = 64;
+constexpr size_t kRowGrain = 32;  // rows per band of the pixel passes
+
+// Shifts a row of `words` 64-bit words (bit u % 64 of word u / 64 is pixel u) by s < 64
+// pixels towards higher u (left = true) or lower u, ORing the result into `out`.
+inline void OrShifted(const uint64_t* in, size_t words, size_t s, bool up, uint64_t* out) {
+  if (s == 0) return;
+  for (size_t k = 0; k < words; ++k) {
+    uint64_t x;
+    if (up) {
+      x = in[k] << s;
+      if (k > 0) x |= in[k - 1] >> (64 - s);
+    } else {
+      x = in[k] >> s;
+      if (k + 1 < words) x |= in[k + 1] << (64 - s);
+    }
+    out[k] |= x;
+  }
+}
+
+// Box dilation of a bit image (h rows of (w + 63) / 64 words): a bit of `out` is set when a
+// bit of `in` lies within m pixels in x and in y. `rows` and `line` are scratch.
+void DilateBits(size_t w, size_t h, size_t m, const std::vector<uint64_t>& in,
+                std::vector<uint64_t>* rows, std::vector<uint64_t>* line_buffer,
+                std::vector<uint64_t>* out) {
+  const size_t words = (w + 63) / 64;
+  *rows = in;
+  std::vector<uint64_t>& line = *line_buffer;
+  line.resize(words);
+  for (size_t v = 0; v < h; ++v) {
+    uint64_t* const row = rows->data() + v * words;
+    // Radius r grown by s <= r + 1 each step: the shifted copies leave no gap.
+    for (size_t r = 0; r < m;) {
+      const size_t s = std::min({r + 1, m - r, size_t{63}});
+      std::copy(row, row + words, line.begin());
+      OrShifted(line.data(), words, s, true, row);
+      OrShifted(line.data(), words, s, false, row);
+      r += s;
+    }
+  }
+  out->assign(words * h, 0);
+  for (size_t v = 0; v < h; ++v) {
+    uint64_t* const dst = out->data() + v * words;
+    const size_t first = v >= m ? v - m : 0, last = std::min(h - 1, v + m);
+    for (size_t q = first; q <= last; ++q) {
+      const uint64_t* const src = rows->data() + q * words;
+      for (size_t k = 0; k < words; ++k) dst[k] |= src[k];
+    }
+  }
+}
 
 inline float Dot(const core::Vec3f& a, const core::Vec3f& b) {
   return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+// |n . p + d|, summed as the four-lane path of step 4 sums it (the same value either way).
+inline float PlaneDistance(float nx, float ny, float nz, float d, const core::Vec3f& p) {
+  return std::abs((nx * p.x + ny * p.y) + (nz * p.z + d));
 }
 
 // Metric area of a pixel at `p` on a surface of normal `n`: z^2 / (fx fy cos t), the
@@ -57,7 +111,94 @@ void PlanarRegionParams::ValidateOrThrow() const {
   check.InRange("max_normal_angle_deg", max_normal_angle_deg, 0.1f, 45.f, "deg");
   check.InRange("max_region_rms", max_region_rms, 0.1f, 100.f);
   check.InRange("margin_px", margin_px, 0, 256, "px");
+  check.InRange("ring_min_cluster_px", ring_min_cluster_px, 0, 1 << 20, "px");
   check.InRange("max_point_distance_rms", max_point_distance_rms, 0.1f, 100.f);
+}
+
+// Calls fn(word, mask) for each word of a row that pixels [run.begin, run.end) touch, with
+// the mask of their bits in it.
+template <typename Run, typename Fn>
+inline void ForRunWords(const Run& run, const Fn& fn) {
+  for (size_t k = run.begin / 64; k * 64 < run.end; ++k) {
+    uint64_t mask = ~uint64_t{0};
+    if (k * 64 < run.begin) mask &= ~uint64_t{0} << (run.begin - k * 64);
+    if (run.end < (k + 1) * 64) mask &= ~(~uint64_t{0} << (run.end - k * 64));
+    fn(k, mask);
+  }
+}
+
+void PlanarRegionFinder::DropSmallIslands(size_t w, size_t h, uint32_t min_object_pixels) {
+  if (min_object_pixels == 0) return;
+  const size_t words = (w + 63) / 64;
+  // The kept pixels: object points, and support points in the ring.
+  kept_bits_.resize(words * h);
+  for (size_t k = 0; k < words * h; ++k) {
+    kept_bits_[k] = object_bits_[k] | (support_bits_[k] & ring_bits_[k]);
+  }
+  // Their runs, row by row, and a union-find forest over the runs (8-connected: runs of
+  // neighbouring rows that overlap or touch diagonally are one island).
+  runs_.clear();
+  run_row_start_.assign(h + 1, 0);
+  for (size_t v = 0; v < h; ++v) {
+    run_row_start_[v] = static_cast<uint32_t>(runs_.size());
+    const uint64_t* const row = &kept_bits_[v * words];
+    size_t u = 0;
+    while (u < w) {
+      size_t k = u / 64;  // the next set bit at or after u
+      uint64_t x = row[k] & (~uint64_t{0} << (u % 64));
+      while (x == 0 && ++k < words) x = row[k];
+      if (x == 0) break;
+      const size_t begin = k * 64 + static_cast<size_t>(__builtin_ctzll(x));
+      if (begin >= w) break;
+      k = begin / 64;  // the next clear bit after it
+      uint64_t y = ~row[k] & (~uint64_t{0} << (begin % 64));
+      while (y == 0 && ++k < words) y = ~row[k];
+      const size_t end = y == 0 ? w : std::min(w, k * 64 + static_cast<size_t>(__builtin_ctzll(y)));
+      runs_.push_back(Run{static_cast<uint32_t>(begin), static_cast<uint32_t>(end),
+                          static_cast<uint32_t>(runs_.size())});
+      u = end;
+    }
+  }
+  run_row_start_[h] = static_cast<uint32_t>(runs_.size());
+  auto find = [&](uint32_t x) {
+    while (runs_[x].parent != x) {
+      runs_[x].parent = runs_[runs_[x].parent].parent;
+      x = runs_[x].parent;
+    }
+    return x;
+  };
+  for (size_t v = 1; v < h; ++v) {
+    uint32_t a = run_row_start_[v - 1];
+    const uint32_t a_end = run_row_start_[v];
+    for (uint32_t b = run_row_start_[v]; b < run_row_start_[v + 1]; ++b) {
+      // Runs of the row above that end before this one begins (less the diagonal) are done.
+      while (a < a_end && runs_[a].end < runs_[b].begin) ++a;
+      for (uint32_t c = a; c < a_end && runs_[c].begin <= runs_[b].end; ++c) {
+        const uint32_t ra = find(c), rb = find(b);
+        if (ra != rb) runs_[std::max(ra, rb)].parent = std::min(ra, rb);
+      }
+    }
+  }
+  // Object points per island.
+  island_objects_.assign(runs_.size(), 0);
+  for (size_t v = 0; v < h; ++v) {
+    const uint64_t* const object = &object_bits_[v * words];
+    for (uint32_t r = run_row_start_[v]; r < run_row_start_[v + 1]; ++r) {
+      uint32_t count = 0;
+      ForRunWords(runs_[r], [&](size_t k, uint64_t mask) {
+        count += static_cast<uint32_t>(__builtin_popcountll(object[k] & mask));
+      });
+      island_objects_[find(r)] += count;
+    }
+  }
+  // Small islands leave the ring: their support points are taken.
+  for (size_t v = 0; v < h; ++v) {
+    uint64_t* const ring = &ring_bits_[v * words];
+    for (uint32_t r = run_row_start_[v]; r < run_row_start_[v + 1]; ++r) {
+      if (island_objects_[find(r)] >= min_object_pixels) continue;
+      ForRunWords(runs_[r], [&](size_t k, uint64_t mask) { ring[k] &= ~mask; });
+    }
+  }
 }
 
 PlanarRegionFinder::PlanarRegionFinder(const PlanarRegionParams& params, core::ThreadPool* pool)
@@ -240,66 +381,214 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   }
   if (out->regions.empty()) return;
 
-  // 4. Blocks of half a cell whose surroundings up to margin_px pixels lie in one region (or
-  // outside the image) give their points near the plane to it.
-  const size_t half = (c + 1) / 2;
-  const long margin = params_.margin_px;
-  taken_blocks_.clear();
+  // 4. Per pixel: the points near the plane of a region whose cell is in the region, or
+  // is a cell outside every region next to one (a cell that failed the planarity or
+  // validity test, the region's border), are support; every other valid point is an object
+  // point. The support points farther than margin_px (in x and in y) from every object
+  // point go to their region: the ring of support around each object is measured from the
+  // object's points, not from the cells it touches.
+  const size_t num_regions = out->regions.size();
+  // A region takes points only when it has a core cell (all 8 neighbours in it): planar
+  // cells that noise scattered over the image can form a region of the support area, but
+  // not a solid one.
+  region_core_.assign(num_regions, 0);
   for (size_t i = 0; i < num_cells; ++i) {
     const int32_t r = cell_region_[i];
-    if (r < 0) continue;
     const size_t cr = i / cw, cc = i % cw;
-    for (uint32_t q = 0; q < 4; ++q) {
-      const long bu0 = static_cast<long>(cc * c + (q & 1) * half);
-      const long bv0 = static_cast<long>(cr * c + (q >> 1) * half);
-      const long bu1 = std::min(static_cast<long>(w), bu0 + static_cast<long>(half));
-      const long bv1 = std::min(static_cast<long>(h), bv0 + static_cast<long>(half));
-      if (bu0 >= bu1 || bv0 >= bv1) continue;
-      const long lc = static_cast<long>(c);
-      const long c0 = std::max(0L, bu0 - margin) / lc;
-      const long c1 = std::min(static_cast<long>(w) - 1, bu1 - 1 + margin) / lc;
-      const long r0 = std::max(0L, bv0 - margin) / lc;
-      const long r1 = std::min(static_cast<long>(h) - 1, bv1 - 1 + margin) / lc;
-      bool inside = true;
-      for (long nr = r0; nr <= r1 && inside; ++nr) {
-        for (long nc = c0; nc <= c1 && inside; ++nc) {
-          inside = cell_region_[static_cast<size_t>(nr) * cw + static_cast<size_t>(nc)] == r;
+    if (r < 0 || cr == 0 || cc == 0 || cr + 1 == ch || cc + 1 == cw) continue;
+    bool core = true;
+    for (size_t nr = cr - 1; nr <= cr + 1 && core; ++nr) {
+      for (size_t nc = cc - 1; nc <= cc + 1 && core; ++nc) core = cell_region_[nr * cw + nc] == r;
+    }
+    if (core) region_core_[static_cast<size_t>(r)] = 1;
+  }
+  // Candidates: a region's own cells, then every other cell those of the regions nearest to
+  // it (in 8-connected steps over cells outside the regions; up to kMax, in region order).
+  cell_candidates_.assign(num_cells, CellCandidates{});
+  queue_.clear();
+  for (size_t i = 0; i < num_cells; ++i) {
+    const int32_t r = cell_region_[i];
+    if (r < 0 || !region_core_[static_cast<size_t>(r)]) continue;
+    CellCandidates& cand = cell_candidates_[i];
+    cand.region[cand.count++] = static_cast<int16_t>(r);
+    queue_.push_back(static_cast<uint32_t>(i));
+  }
+  cell_step_.assign(num_cells, UINT32_MAX);
+  for (const uint32_t i : queue_) cell_step_[i] = 0;
+  for (size_t q = 0; q < queue_.size(); ++q) {
+    const uint32_t i = queue_[q];
+    const CellCandidates& from = cell_candidates_[i];
+    const size_t cr = i / cw, cc = i % cw;
+    for (size_t nr = cr > 0 ? cr - 1 : 0; nr <= std::min(ch - 1, cr + 1); ++nr) {
+      for (size_t nc = cc > 0 ? cc - 1 : 0; nc <= std::min(cw - 1, cc + 1); ++nc) {
+        const size_t j = nr * cw + nc;
+        if (cell_step_[j] != UINT32_MAX && cell_step_[j] != cell_step_[i] + 1) continue;
+        if (cell_step_[j] == UINT32_MAX) {
+          cell_step_[j] = cell_step_[i] + 1;
+          queue_.push_back(static_cast<uint32_t>(j));
+        }
+        CellCandidates& to = cell_candidates_[j];
+        for (uint8_t k = 0; k < from.count; ++k) {
+          bool seen = false;
+          for (uint8_t m = 0; m < to.count; ++m) seen = seen || to.region[m] == from.region[k];
+          if (!seen && to.count < CellCandidates::kMax) to.region[to.count++] = from.region[k];
         }
       }
-      if (inside) taken_blocks_.push_back(static_cast<uint32_t>(i * 4 + q));
     }
   }
-  block_taken_.assign(taken_blocks_.size(), 0);
-  block_area_.assign(taken_blocks_.size(), 0.0);
+  // Candidates in region order, so that a point near two planes goes to the first.
+  for (CellCandidates& cand : cell_candidates_) {
+    std::sort(cand.region.begin(), cand.region.begin() + cand.count);
+  }
+  // The area of a taken pixel: at its cell's centroid (a cell spans a few centimetres).
+  for (size_t i = 0; i < num_cells; ++i) {
+    CellCandidates& cand = cell_candidates_[i];
+    const double* const m = &moments_[i * kNumMoments];
+    if (cand.count == 0 || m[0] <= 0.0) continue;
+    const core::Vec3f centroid{static_cast<float>(m[1] / m[0]), static_cast<float>(m[2] / m[0]),
+                               static_cast<float>(m[3] / m[0])};
+    for (uint8_t k = 0; k < cand.count; ++k) {
+      const core::Vec3f& normal = out->regions[static_cast<size_t>(cand.region[k])].normal;
+      cand.pixel_area_m2[k] = static_cast<float>(PixelArea(centroid, normal, pixel_area));
+    }
+  }
+  const size_t words = (w + 63) / 64;
+  object_bits_.resize(words * h);
+  support_bits_.resize(words * h);
+  pixel_candidate_.resize(w * h);
+
   const float point_k = params_.max_point_distance_rms;
-  core::ForChunks(pool_, taken_blocks_.size(), kTakenBlockGrain, [&](size_t b, size_t e) {
-    for (size_t t = b; t < e; ++t) {
-      const size_t i = taken_blocks_[t] / 4, q = taken_blocks_[t] % 4;
-      const PlanarRegion& region = out->regions[static_cast<size_t>(cell_region_[i])];
-      const size_t u0 = (i % cw) * c + (q & 1) * half, v0 = (i / cw) * c + (q >> 1) * half;
-      const size_t u1 = std::min(w, u0 + half), v1 = std::min(h, v0 + half);
-      uint32_t taken = 0;
-      for (size_t v = v0; v < v1; ++v) {
-        for (size_t u = u0; u < u1; ++u) {
-          core::Vec3f& p = xyz[v * w + u];
+  const float rms_floor = params_.min_rms_m, rms_at_1m = params_.max_rms_at_1m_m;
+  core::ForChunks(pool_, h, kRowGrain, [&](size_t v0, size_t v1) {
+    for (size_t v = v0; v < v1; ++v) {
+      const CellCandidates* const cell_row = &cell_candidates_[(v / c) * cw];
+      const core::Vec3f* const line = xyz + v * w;
+      uint8_t* const which = &pixel_candidate_[v * w];
+      uint64_t* const support = &support_bits_[v * words];
+      uint64_t* const object = &object_bits_[v * words];
+      std::fill(support, support + words, uint64_t{0});
+      std::fill(object, object + words, uint64_t{0});
+      for (size_t cc = 0; cc < cw; ++cc) {
+        const CellCandidates& cand = cell_row[cc];
+        const size_t u1 = std::min(w, (cc + 1) * c);
+        size_t u = cc * c;
+        if (cand.count <= 1) {
+          // None or one candidate region (the usual cells): the candidate is implied.
+          const bool any = cand.count == 1;
+          const PlanarRegion& pr = out->regions[any ? static_cast<size_t>(cand.region[0]) : 0];
+          const float nx = pr.normal.x, ny = pr.normal.y, nz = pr.normal.z, d = pr.d;
+          const float k = any ? point_k : -1.f;  // no candidate: no point is near
+#if defined(__SSE2__)
+          // Four points at a time, their bits written together (u is a multiple of 4).
+          const __m128 vnx = _mm_set1_ps(nx), vny = _mm_set1_ps(ny), vnz = _mm_set1_ps(nz);
+          const __m128 vd = _mm_set1_ps(d), vk = _mm_set1_ps(k);
+          const __m128 vfloor = _mm_set1_ps(rms_floor), va = _mm_set1_ps(rms_at_1m);
+          const __m128 sign = _mm_set1_ps(-0.f);
+          for (; u % 4 == 0 && u + 4 <= u1; u += 4) {
+            const core::FourPoints q = core::LoadFourPoints(line + u);
+            const __m128 dot = _mm_add_ps(_mm_add_ps(_mm_mul_ps(vnx, q.x), _mm_mul_ps(vny, q.y)),
+                                          _mm_add_ps(_mm_mul_ps(vnz, q.z), vd));
+            const __m128 dist = _mm_andnot_ps(sign, dot);
+            const __m128 limit =
+                _mm_mul_ps(vk, _mm_max_ps(vfloor, _mm_mul_ps(va, _mm_mul_ps(q.z, q.z))));
+            const __m128 near = _mm_cmple_ps(dist, limit);  // false for NaN
+            const __m128 valid = _mm_cmpeq_ps(q.z, q.z);
+            const uint64_t near_bits = static_cast<uint64_t>(_mm_movemask_ps(near));
+            const uint64_t object_bits =
+                static_cast<uint64_t>(_mm_movemask_ps(_mm_andnot_ps(near, valid)));
+            support[u / 64] |= near_bits << (u % 64);
+            object[u / 64] |= object_bits << (u % 64);
+          }
+#endif
+          for (; u < u1; ++u) {
+            const core::Vec3f& p = line[u];
+            const float dist = PlaneDistance(nx, ny, nz, d, p);
+            const bool near = dist <= k * std::max(rms_floor, rms_at_1m * (p.z * p.z));
+            const uint64_t bit = uint64_t{1} << (u % 64);
+            if (near) {
+              support[u / 64] |= bit;
+            } else if (p.z == p.z) {
+              object[u / 64] |= bit;
+            }
+          }
+          continue;
+        }
+        for (; u < u1; ++u) {
+          const core::Vec3f& p = line[u];
           if (!(p.z == p.z)) continue;
-          if (std::abs(Dot(region.normal, p) + region.d) > point_k * bound_at(p.z)) continue;
-          ++taken;
-          p = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+          const float limit = point_k * std::max(rms_floor, rms_at_1m * (p.z * p.z));
+          uint8_t k = 0;
+          while (k < cand.count) {
+            const PlanarRegion& pr = out->regions[static_cast<size_t>(cand.region[k])];
+            if (PlaneDistance(pr.normal.x, pr.normal.y, pr.normal.z, pr.d, p) <= limit) break;
+            ++k;
+          }
+          const uint64_t bit = uint64_t{1} << (u % 64);
+          if (k < cand.count) {
+            which[u] = static_cast<uint8_t>(k + 1);
+            support[u / 64] |= bit;
+          } else {
+            object[u / 64] |= bit;
+          }
         }
       }
-      // The area of the block's pixels, at its cell's centroid (a cell spans a few
-      // centimetres).
-      block_taken_[t] = taken;
-      block_area_[t] = taken * PixelArea(cells_[i].centroid, region.normal, pixel_area);
     }
   });
-  // Summed in block order: the same totals for any pool.
-  for (size_t t = 0; t < taken_blocks_.size(); ++t) {
-    PlanarRegion& region = out->regions[static_cast<size_t>(cell_region_[taken_blocks_[t] / 4])];
-    region.num_taken_points += block_taken_[t];
-    region.taken_area_m2 += static_cast<float>(block_area_[t]);
-    out->num_taken_points += block_taken_[t];
+  // The ring: within margin_px of the object points. A few points off the plane (noise
+  // spikes on a far floor) would keep a square of 2 margin_px + 1 pixels of support around
+  // each, an island that the later stages can take for an object: the support of a kept
+  // island (8-connected object points and their ring) with fewer than ring_min_cluster_px
+  // object points goes too (those points themselves stay in the cloud, and the supervoxels
+  // drop them as tiny groups). Near an object, such points are part of its island.
+  DilateBits(w, h, static_cast<size_t>(params_.margin_px), object_bits_, &row_bits_, &line_bits_,
+             &ring_bits_);
+  DropSmallIslands(w, h, static_cast<uint32_t>(params_.ring_min_cluster_px));
+  const size_t num_bands = core::ThreadPool::NumChunks(h, kRowGrain);
+  // Each band's counters on cache lines of their own (the bands run on different cores).
+  const size_t stride = (num_regions + 7) / 8 * 8 + 8;
+  band_taken_.assign(num_bands * stride, 0);
+  band_area_.assign(num_bands * stride, 0.0);
+  core::ForChunks(pool_, h, kRowGrain, [&](size_t v0, size_t v1) {
+    uint32_t* const taken = &band_taken_[(v0 / kRowGrain) * stride];
+    double* const area = &band_area_[(v0 / kRowGrain) * stride];
+    for (size_t v = v0; v < v1; ++v) {
+      const uint64_t* const support = &support_bits_[v * words];
+      const uint64_t* const near_object = &ring_bits_[v * words];
+      const uint8_t* const which = &pixel_candidate_[v * w];
+      core::Vec3f* const line = xyz + v * w;
+      const size_t cell_row = (v / c) * cw;
+      for (size_t cc = 0; cc < cw; ++cc) {
+        const CellCandidates& cand = cell_candidates_[cell_row + cc];
+        if (cand.count == 0) continue;
+        uint32_t count[CellCandidates::kMax] = {};
+        const size_t u0 = cc * c, u1 = std::min(w, (cc + 1) * c);
+        for (size_t k = u0 / 64; k * 64 < u1; ++k) {
+          uint64_t take = support[k] & ~near_object[k];
+          if (k * 64 < u0) take &= ~uint64_t{0} << (u0 - k * 64);
+          if (u1 < (k + 1) * 64) take &= ~(~uint64_t{0} << (u1 - k * 64));
+          if (cand.count == 1) count[0] += static_cast<uint32_t>(__builtin_popcountll(take));
+          for (; take != 0; take &= take - 1) {
+            const size_t u = k * 64 + static_cast<size_t>(__builtin_ctzll(take));
+            if (cand.count > 1) ++count[which[u] - 1];
+            line[u] = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
+          }
+        }
+        for (uint8_t k = 0; k < cand.count; ++k) {
+          const size_t r = static_cast<size_t>(cand.region[k]);
+          taken[r] += count[k];
+          area[r] += count[k] * double{cand.pixel_area_m2[k]};
+        }
+      }
+    }
+  });
+  // Summed in band order: the same totals for any pool.
+  for (size_t b = 0; b < num_bands; ++b) {
+    for (size_t r = 0; r < num_regions; ++r) {
+      PlanarRegion& region = out->regions[r];
+      region.num_taken_points += band_taken_[b * stride + r];
+      region.taken_area_m2 += static_cast<float>(band_area_[b * stride + r]);
+      out->num_taken_points += band_taken_[b * stride + r];
+    }
   }
   // Regions that took nothing (no interior cell) are left to the supervoxels entirely.
   out->regions.erase(std::remove_if(out->regions.begin(), out->regions.end(),

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <string_view>
 #include <vector>
@@ -39,15 +40,21 @@ struct PlanarRegionParams {
   /// ...and the RMS distance of its points to that plane is at most this many times its RMS
   /// bound (the test of the merged fit: offset and tilt together).
   float max_region_rms{2.0f};
-  /// A region at least the support area (objects.support_min_area_m2) takes the points of
-  /// its blocks of half a cell that have no cell outside the region within this many pixels
-  /// (cells outside the image do not count): a ring of the support of 8-16 px stays around
-  /// each object for the supervoxels, so the plane labelling still sees the table next to
-  /// its bottom. 0 = every cell of the region (lower WOv on mOSD and the synthetic rooms);
-  /// 16 takes a quarter less of the table for no better quality (docs/results.md).
-  int margin_px{8};
-  /// Points of those cells farther from the plane than this many times the RMS bound at
-  /// their depth stay in the cloud (a thin object lying on the table).
+  /// A region at least the support area (objects.support_min_area_m2) takes the points
+  /// near its plane (see max_point_distance_rms) in its cells and in the cells around it,
+  /// except those within this many pixels, in x and in y, of an object point (a valid point
+  /// near no region's plane): a ring of the support of this width stays around each object
+  /// for the supervoxels, so the plane labelling still sees the table next to its bottom.
+  /// Missing pixels leave no ring. 0 = every point near the plane (lower WOv on mOSD and the
+  /// synthetic rooms); 8, 12 and 16 measured no better (docs/method.md section 10).
+  int margin_px{10};
+  /// An island of kept points (8-connected object points and the support of their ring)
+  /// with fewer object points than this gives its support points to the plane too: a lone
+  /// point off the plane (a noise spike, far away) leaves no island that could pass for an
+  /// object (0 = keep every ring; from 3 up mosd-learn loses 0.01, docs/method.md).
+  int ring_min_cluster_px{2};
+  /// A point is near a region's plane within this many times the RMS bound at its depth
+  /// (farther: an object point, e.g. a thin object lying on the table).
   float max_point_distance_rms{3.0f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.support.<field>`) and value.
@@ -60,7 +67,8 @@ struct PlanarRegion {
   core::Vec3f normal{0.f, 0.f, -1.f};
   float d{0.f};
   uint32_t num_cells{0};
-  /// Metric area of all the region's cells, m^2 (at least the area the finder was given).
+  /// Metric area of all the region's cells, m^2 (at least the area the finder was given; the
+  /// points taken may also come from the cells around the region).
   float area_m2{0.f};
   /// Points taken from the cloud (set invalid) as this plane's, and their metric area, m^2.
   uint32_t num_taken_points{0};
@@ -77,12 +85,13 @@ struct PlanarRegions {
 /// Finds the large planes of an organized cloud on its pixel grid and takes their interior
 /// points out of the cloud, so that the supervoxels (and every stage after them) work on the
 /// objects and a margin of the support around them, not on the whole table, floor and wall.
-/// The points within margin_px of a cell outside the region stay, so the plane hypotheses
-/// still see the support next to each object and the objects' bottoms are cut from it as
-/// before.
+/// The points within margin_px of an object point stay, so the plane hypotheses still see the
+/// support next to each object and the objects' bottoms are cut from it as before.
 ///
-/// Cost: one pass over the points for the cell moments, one over the taken blocks, and a
-/// region growing over the cells (1200 for 640x480 at 16 px). Thread-safety: Compute is not
+/// Cost: one pass over the points for the cell moments, a region growing over the cells (1200
+/// for 640x480 at 16 px), one pass over the points that tests them against their cells'
+/// candidate planes (four at a time), a dilation of the object points' bit image and one pass
+/// that takes the support points outside it. Thread-safety: Compute is not
 /// reentrant (buffers are reused); distinct instances are independent. Work is split over
 /// the pool given at construction by rows of cells: the output does not depend on its size.
 class PlanarRegionFinder {
@@ -100,6 +109,10 @@ class PlanarRegionFinder {
   const PlanarRegionParams& params() const { return params_; }
 
  private:
+  // Clears the ring bits of the kept islands (8-connected object points and the support
+  // points of their ring) with fewer than `min_object_pixels` object points.
+  void DropSmallIslands(size_t w, size_t h, uint32_t min_object_pixels);
+
   struct Cell {
     core::Vec3f centroid;
     core::Vec3f normal;
@@ -116,9 +129,34 @@ class PlanarRegionFinder {
   std::vector<int32_t> cell_region_;
   std::vector<uint32_t> order_;
   std::vector<uint32_t> queue_;
-  std::vector<uint32_t> taken_blocks_;  // cell * 4 + quadrant
-  std::vector<uint32_t> block_taken_;   // per taken block: points taken, and their area
-  std::vector<double> block_area_;
+  // Regions a cell's points may go to: its own, or those of the cells around a cell outside
+  // every region (ascending).
+  struct CellCandidates {
+    static constexpr uint8_t kMax = 4;
+    std::array<int16_t, kMax> region{};
+    std::array<float, kMax> pixel_area_m2{};  // metric area of a pixel on that plane, m^2
+    uint8_t count{0};
+  };
+  std::vector<CellCandidates> cell_candidates_;
+  std::vector<uint32_t> cell_step_;   // cell steps from the nearest region cell
+  std::vector<uint8_t> region_core_;  // per output region: has a cell inside it
+  // Per pixel of a cell with several candidates: the candidate + 1 of a support point.
+  std::vector<uint8_t> pixel_candidate_;
+  std::vector<uint64_t> object_bits_;   // per pixel row: bits of the object points
+  std::vector<uint64_t> support_bits_;  // per pixel row: bits of the support points
+  std::vector<uint64_t> row_bits_;      // object bits dilated along the rows
+  std::vector<uint64_t> line_bits_;     // one row of bits (scratch)
+  std::vector<uint64_t> ring_bits_;     // within margin_px of an object point
+  struct Run {
+    uint32_t begin, end;  // pixels [begin, end) of a row
+    uint32_t parent;      // union-find over runs
+  };
+  std::vector<Run> runs_;
+  std::vector<uint32_t> run_row_start_;   // first run of each row, and the total
+  std::vector<uint32_t> island_objects_;  // per root run: object points of its island
+  std::vector<uint64_t> kept_bits_;       // object points and the support points of the ring
+  std::vector<uint32_t> band_taken_;      // per band of rows and region: points taken, area
+  std::vector<double> band_area_;
   std::vector<double> region_area_;  // per grown region, m^2
   struct RegionPlane {
     core::Vec3f normal;

@@ -77,11 +77,10 @@ TEST(PlanarRegions, TakesTheTableInteriorAndLeavesTheBoxWithAMargin) {
   EXPECT_GT(r.normal.x * s.n.x + r.normal.y * s.n.y + r.normal.z * s.n.z, std::cos(0.01));
   EXPECT_NEAR(r.d, s.d, 0.003f);
   EXPECT_GE(r.area_m2, 0.15f);
-  EXPECT_GT(r.taken_area_m2, 0.f);
-  EXPECT_LE(r.taken_area_m2, r.area_m2);
   EXPECT_EQ(r.num_taken_points, out.num_taken_points);
 
   size_t valid = 0, taken = 0, box_taken = 0, near_box_taken = 0;
+  double taken_area = 0.0;  // z^2 / (fx fy cos t) per taken point
   for (int v = 0; v < s.k.height; ++v) {
     for (int u = 0; u < s.k.width; ++u) {
       const size_t i = static_cast<size_t>(v) * s.k.width + u;
@@ -96,6 +95,10 @@ TEST(PlanarRegions, TakesTheTableInteriorAndLeavesTheBoxWithAMargin) {
       }
       ++taken;
       box_taken += s.on_box[i];
+      const core::Vec3f& p = before.xyz[i];
+      const double range = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+      const double cos_t = std::abs(p.x * s.n.x + p.y * s.n.y + p.z * s.n.z) / range;
+      taken_area += double{p.z} * p.z / (s.k.fx * s.k.fy * std::max(0.2, cos_t));
       // Taken points lie on the table, within the point bound of the found plane.
       EXPECT_LT(Distance(before.xyz[i], r.normal, r.d), 0.02f);
       const bool near_box = u >= box[0] - params.margin_px && u < box[2] + params.margin_px &&
@@ -104,11 +107,123 @@ TEST(PlanarRegions, TakesTheTableInteriorAndLeavesTheBoxWithAMargin) {
     }
   }
   EXPECT_EQ(taken, out.num_taken_points);
+  // The taken area is the taken points' (each cell's pixels counted at its centroid).
+  EXPECT_NEAR(r.taken_area_m2, taken_area, 0.01 * taken_area);
   EXPECT_EQ(box_taken, 0u);
   EXPECT_EQ(near_box_taken, 0u) << "the margin around the box stays for the supervoxels";
   // Most of the table goes (the interior), not all of it (the ring around the box).
   EXPECT_GT(static_cast<double>(taken) / valid, 0.6);
   EXPECT_LT(taken, valid - (box[2] - box[0]) * (box[3] - box[1]));
+}
+
+TEST(PlanarRegions, TheRingIsMeasuredFromTheObjectsPoints) {
+  // Every table point farther than margin_px (in x or in y) from the box goes, wherever the
+  // cell boundaries fall; the ones within it all stay.
+  const int box[4] = {283, 257, 341, 318};  // not aligned with the cells
+  for (const int margin : {4, 10, 20}) {
+    Scene s = TableScene(0.001f, box, 0.08f, 3);
+    const core::PointCloud before = s.cloud;
+    PlanarRegionParams params;
+    params.margin_px = margin;
+    PlanarRegions out;
+    PlanarRegionFinder(params).Compute(s.k, 0.15f, &s.cloud, &out);
+    ASSERT_EQ(out.regions.size(), 1u);
+    size_t far = 0, far_taken = 0, near_taken = 0;
+    for (int v = 0; v < s.k.height; ++v) {
+      for (int u = 0; u < s.k.width; ++u) {
+        const size_t i = static_cast<size_t>(v) * s.k.width + u;
+        if (!core::IsValid(before.xyz[i]) || s.on_box[i]) continue;
+        const bool taken = !core::IsValid(s.cloud.xyz[i]);
+        const bool near_box = u >= box[0] - margin && u < box[2] + margin && v >= box[1] - margin &&
+                              v < box[3] + margin;
+        if (near_box) {
+          near_taken += taken ? 1 : 0;
+        } else {
+          ++far;
+          far_taken += taken ? 1 : 0;
+        }
+      }
+    }
+    EXPECT_EQ(near_taken, 0u) << "margin " << margin;
+    // Only points whose noise puts them beyond 3 bounds of the plane stay.
+    EXPECT_GT(static_cast<double>(far_taken) / far, 0.999) << "margin " << margin;
+  }
+}
+
+TEST(PlanarRegions, CellsWithDropoutsGoWithTheirPlane) {
+  // A patch of the table with a third of its pixels missing (sensor dropouts): its cells
+  // fail the validity test, but their points lie on the table's plane and go with it, and
+  // the missing pixels leave no ring.
+  const int box[4] = {0, 0, 0, 0};
+  Scene s = TableScene(0.001f, box, 0.f, 5);
+  std::mt19937 rng(11);
+  std::bernoulli_distribution drop(1.0 / 3.0);
+  size_t patch_valid = 0;
+  for (int v = 300; v < 380; ++v) {
+    for (int u = 250; u < 390; ++u) {
+      core::Vec3f& p = s.cloud.xyz[static_cast<size_t>(v) * s.k.width + u];
+      if (drop(rng)) p = core::Vec3f{kNaN, kNaN, kNaN};
+      patch_valid += core::IsValid(p) ? 1 : 0;
+    }
+  }
+  ASSERT_GT(patch_valid, 5000u);
+  PlanarRegions out;
+  PlanarRegionFinder(PlanarRegionParams{}).Compute(s.k, 0.15f, &s.cloud, &out);
+  ASSERT_EQ(out.regions.size(), 1u);
+  size_t left = 0;
+  for (int v = 300; v < 380; ++v) {
+    for (int u = 250; u < 390; ++u) {
+      left += core::IsValid(s.cloud.xyz[static_cast<size_t>(v) * s.k.width + u]) ? 1 : 0;
+    }
+  }
+  EXPECT_LT(static_cast<double>(left) / patch_valid, 0.001);
+}
+
+TEST(PlanarRegions, LoneSpikesLeaveNoIslandButPairsKeepTheirRing) {
+  // Single points far off the table (noise spikes) keep no ring: the table around them goes
+  // and only the spike stays. Two touching points keep the ring of margin_px around them.
+  const int box[4] = {0, 0, 0, 0};
+  Scene s = TableScene(0.001f, box, 0.f, 9);
+  const int w = s.k.width;
+  auto lift = [&](int u, int v) {
+    core::Vec3f& p = s.cloud.xyz[static_cast<size_t>(v) * w + u];
+    p = core::Vec3f{p.x * 0.9f, p.y * 0.9f, p.z * 0.9f};  // 10 % nearer: far off the plane
+  };
+  lift(200, 330);
+  lift(420, 360);
+  lift(320, 300);
+  lift(321, 301);  // a pair (diagonal neighbours)
+  const core::PointCloud before = s.cloud;
+  PlanarRegionParams params;
+  PlanarRegions out;
+  PlanarRegionFinder(params).Compute(s.k, 0.15f, &s.cloud, &out);
+  ASSERT_EQ(out.regions.size(), 1u);
+  auto kept_around = [&](int u0, int v0) {
+    size_t kept = 0;
+    for (int v = v0 - params.margin_px; v <= v0 + params.margin_px; ++v) {
+      for (int u = u0 - params.margin_px; u <= u0 + params.margin_px; ++u) {
+        const size_t i = static_cast<size_t>(v) * w + u;
+        kept += core::IsValid(before.xyz[i]) && core::IsValid(s.cloud.xyz[i]) ? 1 : 0;
+      }
+    }
+    return kept;
+  };
+  EXPECT_EQ(kept_around(200, 330), 1u) << "only the spike stays";
+  EXPECT_EQ(kept_around(420, 360), 1u) << "only the spike stays";
+  const size_t side = 2 * static_cast<size_t>(params.margin_px) + 1;
+  EXPECT_GE(kept_around(320, 300), side * side - 2) << "the pair keeps its ring";
+
+  // 0 keeps every ring.
+  params.ring_min_cluster_px = 0;
+  core::PointCloud again = before;
+  PlanarRegionFinder(params).Compute(s.k, 0.15f, &again, &out);
+  size_t kept = 0;
+  for (int v = 330 - params.margin_px; v <= 330 + params.margin_px; ++v) {
+    for (int u = 200 - params.margin_px; u <= 200 + params.margin_px; ++u) {
+      kept += core::IsValid(again.xyz[static_cast<size_t>(v) * w + u]) ? 1 : 0;
+    }
+  }
+  EXPECT_GE(kept, side * side - 2);
 }
 
 TEST(PlanarRegions, RegionsSmallerThanTheSupportAreaTakeNothing) {
