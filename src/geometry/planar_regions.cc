@@ -32,6 +32,18 @@ inline void OrShifted(const uint64_t* in, size_t words, size_t s, bool up, uint6
   }
 }
 
+// Calls fn(word, mask) for each word of a bit row that pixels [begin, end) touch, with the
+// mask of their bits in it.
+template <typename Fn>
+inline void ForRangeWords(size_t begin, size_t end, const Fn& fn) {
+  for (size_t k = begin / 64; k * 64 < end; ++k) {
+    uint64_t mask = ~uint64_t{0};
+    if (k * 64 < begin) mask &= ~uint64_t{0} << (begin - k * 64);
+    if (end < (k + 1) * 64) mask &= ~(~uint64_t{0} << (end - k * 64));
+    fn(k, mask);
+  }
+}
+
 // Box dilation of a bit image (h rows of (w + 63) / 64 words): a bit of `out` is set when a
 // bit of `in` lies within m pixels in x and in y. `rows` and `line` are scratch.
 void DilateBits(size_t w, size_t h, size_t m, const std::vector<uint64_t>& in,
@@ -115,18 +127,6 @@ void PlanarRegionParams::ValidateOrThrow() const {
   check.InRange("max_point_distance_rms", max_point_distance_rms, 0.1f, 100.f);
 }
 
-// Calls fn(word, mask) for each word of a row that pixels [run.begin, run.end) touch, with
-// the mask of their bits in it.
-template <typename Run, typename Fn>
-inline void ForRunWords(const Run& run, const Fn& fn) {
-  for (size_t k = run.begin / 64; k * 64 < run.end; ++k) {
-    uint64_t mask = ~uint64_t{0};
-    if (k * 64 < run.begin) mask &= ~uint64_t{0} << (run.begin - k * 64);
-    if (run.end < (k + 1) * 64) mask &= ~(~uint64_t{0} << (run.end - k * 64));
-    fn(k, mask);
-  }
-}
-
 void PlanarRegionFinder::DropSmallIslands(size_t w, size_t h, uint32_t min_object_pixels) {
   if (min_object_pixels == 0) return;
   const size_t words = (w + 63) / 64;
@@ -185,7 +185,7 @@ void PlanarRegionFinder::DropSmallIslands(size_t w, size_t h, uint32_t min_objec
     const uint64_t* const object = &object_bits_[v * words];
     for (uint32_t r = run_row_start_[v]; r < run_row_start_[v + 1]; ++r) {
       uint32_t count = 0;
-      ForRunWords(runs_[r], [&](size_t k, uint64_t mask) {
+      ForRangeWords(runs_[r].begin, runs_[r].end, [&](size_t k, uint64_t mask) {
         count += static_cast<uint32_t>(__builtin_popcountll(object[k] & mask));
       });
       island_objects_[find(r)] += count;
@@ -196,7 +196,8 @@ void PlanarRegionFinder::DropSmallIslands(size_t w, size_t h, uint32_t min_objec
     uint64_t* const ring = &ring_bits_[v * words];
     for (uint32_t r = run_row_start_[v]; r < run_row_start_[v + 1]; ++r) {
       if (island_objects_[find(r)] >= min_object_pixels) continue;
-      ForRunWords(runs_[r], [&](size_t k, uint64_t mask) { ring[k] &= ~mask; });
+      ForRangeWords(runs_[r].begin, runs_[r].end,
+                    [&](size_t k, uint64_t mask) { ring[k] &= ~mask; });
     }
   }
 }
@@ -381,10 +382,10 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   }
   if (out->regions.empty()) return;
 
-  // 4. Per pixel: the points near the plane of a region whose cell is in the region, or
-  // is a cell outside every region next to one (a cell that failed the planarity or
-  // validity test, the region's border), are support; every other valid point is an object
-  // point. The support points farther than margin_px (in x and in y) from every object
+  // 4. Per pixel: the points near a candidate plane of their cell (the cell's region, or the
+  // regions nearest to a cell outside every region: one that failed the validity or
+  // planarity test, a region's border, an object) are support; every other valid point is an
+  // object point. The support points farther than margin_px (in x and in y) from every object
   // point go to their region: the ring of support around each object is measured from the
   // object's points, not from the cells it touches.
   const size_t num_regions = out->regions.size();
@@ -562,17 +563,15 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
         if (cand.count == 0) continue;
         uint32_t count[CellCandidates::kMax] = {};
         const size_t u0 = cc * c, u1 = std::min(w, (cc + 1) * c);
-        for (size_t k = u0 / 64; k * 64 < u1; ++k) {
-          uint64_t take = support[k] & ~near_object[k];
-          if (k * 64 < u0) take &= ~uint64_t{0} << (u0 - k * 64);
-          if (u1 < (k + 1) * 64) take &= ~(~uint64_t{0} << (u1 - k * 64));
+        ForRangeWords(u0, u1, [&](size_t k, uint64_t mask) {
+          uint64_t take = support[k] & ~near_object[k] & mask;
           if (cand.count == 1) count[0] += static_cast<uint32_t>(__builtin_popcountll(take));
           for (; take != 0; take &= take - 1) {
             const size_t u = k * 64 + static_cast<size_t>(__builtin_ctzll(take));
             if (cand.count > 1) ++count[which[u] - 1];
             line[u] = core::Vec3f{core::kInvalidDepth, core::kInvalidDepth, core::kInvalidDepth};
           }
-        }
+        });
         for (uint8_t k = 0; k < cand.count; ++k) {
           const size_t r = static_cast<size_t>(cand.region[k]);
           taken[r] += count[k];
