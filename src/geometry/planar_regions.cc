@@ -16,7 +16,7 @@ constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
 constexpr size_t kRowGrain = 32;  // rows per band of the pixel passes
 
 // Shifts a row of `words` 64-bit words (bit u % 64 of word u / 64 is pixel u) by s < 64
-// pixels towards higher u (left = true) or lower u, ORing the result into `out`.
+// pixels towards higher u (up = true) or lower u, ORing the result into `out`.
 inline void OrShifted(const uint64_t* in, size_t words, size_t s, bool up, uint64_t* out) {
   if (s == 0) return;
   for (size_t k = 0; k < words; ++k) {

@@ -129,8 +129,8 @@ class PlanarRegionFinder {
   std::vector<int32_t> cell_region_;
   std::vector<uint32_t> order_;
   std::vector<uint32_t> queue_;
-  // Regions a cell's points may go to: its own, or those of the cells around a cell outside
-  // every region (ascending).
+  // Regions a cell's points may go to: its own, or for a cell outside every region the
+  // regions nearest to it in 8-connected cell steps (ascending).
   struct CellCandidates {
     static constexpr uint8_t kMax = 4;
     std::array<int16_t, kMax> region{};
@@ -139,7 +139,7 @@ class PlanarRegionFinder {
   };
   std::vector<CellCandidates> cell_candidates_;
   std::vector<uint32_t> cell_step_;   // cell steps from the nearest region cell
-  std::vector<uint8_t> region_core_;  // per output region: has a cell inside it
+  std::vector<uint8_t> region_core_;  // per output region: has a cell with all 8 neighbours in it
   // Per pixel of a cell with several candidates: the candidate + 1 of a support point.
   std::vector<uint8_t> pixel_candidate_;
   std::vector<uint64_t> object_bits_;   // per pixel row: bits of the object points
