@@ -314,8 +314,10 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   }
 
   // Regions of one plane that objects cut apart (a table between the objects, a floor behind
-  // them) become one: each lies within the RMS bound of the other's plane. Merged into the
-  // earlier (flatter) region, in order, so the result does not depend on anything else.
+  // them) become one: both lie within their RMS bound of the plane fitted to the two
+  // together. A region merges into the first (flattest-seeded) earlier root that passes, whose
+  // moments and plane then include it, so a piece is judged against the plane of everything
+  // merged so far, not against one small piece's fit; the order is fixed by the seeds.
   region_plane_.resize(num_grown);
   region_root_.resize(num_grown);
   for (size_t r = 0; r < num_grown; ++r) {
@@ -327,28 +329,24 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
     return double{params_.max_region_rms} * bound_at(z);
   };
   for (size_t r = 1; r < num_grown; ++r) {
-    const double* mr = &region_moments_[r * kNumMoments];
+    double* const mr = &region_moments_[r * kNumMoments];
     if (mr[0] < 3.0) continue;
     for (size_t q = 0; q < r; ++q) {
       if (region_root_[q] != static_cast<int32_t>(q)) continue;
-      const double* mq = &region_moments_[q * kNumMoments];
-      const RegionPlane& pq = region_plane_[q];
-      const RegionPlane& pr = region_plane_[r];
-      if (Dot(pq.normal, pr.normal) < min_cos) continue;
-      if (PlaneRms(mr, pq.normal, pq.d) > bound_of(mr) ||
-          PlaneRms(mq, pr.normal, pr.d) > bound_of(mq)) {
+      double* const mq = &region_moments_[q * kNumMoments];
+      if (Dot(region_plane_[q].normal, region_plane_[r].normal) < min_cos) continue;
+      double both[kNumMoments];
+      for (size_t k = 0; k < kNumMoments; ++k) both[k] = mq[k] + mr[k];
+      RegionPlane joint;
+      FitMoments(both, &joint.normal, &joint.d);
+      if (PlaneRms(mr, joint.normal, joint.d) > bound_of(mr) ||
+          PlaneRms(mq, joint.normal, joint.d) > bound_of(mq)) {
         continue;
       }
       region_root_[r] = static_cast<int32_t>(q);
+      std::copy(both, both + kNumMoments, mq);
+      region_plane_[q] = joint;
       break;
-    }
-  }
-  // Sum merged moments into the roots (roots come first, so one pass in order suffices).
-  for (size_t r = 0; r < num_grown; ++r) {
-    const size_t root = static_cast<size_t>(region_root_[r]);
-    if (root == r) continue;
-    for (size_t k = 0; k < kNumMoments; ++k) {
-      region_moments_[root * kNumMoments + k] += region_moments_[r * kNumMoments + k];
     }
   }
   // Kept regions: roots covering the support area, refitted on all their cells.
