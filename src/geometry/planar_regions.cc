@@ -329,7 +329,7 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
     return double{params_.max_region_rms} * bound_at(z);
   };
   for (size_t r = 1; r < num_grown; ++r) {
-    double* const mr = &region_moments_[r * kNumMoments];
+    const double* mr = &region_moments_[r * kNumMoments];
     if (mr[0] < 3.0) continue;
     for (size_t q = 0; q < r; ++q) {
       if (region_root_[q] != static_cast<int32_t>(q)) continue;
@@ -349,14 +349,10 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
       break;
     }
   }
-  // Kept regions: roots covering the support area, refitted on all their cells.
+  // Kept regions: roots covering the support area (each root's plane is already the fit to
+  // all its cells).
   region_out_.assign(num_grown, -1);
   region_area_.assign(num_grown, 0.0);
-  for (size_t r = 0; r < num_grown; ++r) {
-    if (region_root_[r] == static_cast<int32_t>(r)) {
-      FitMoments(&region_moments_[r * kNumMoments], &region_plane_[r].normal, &region_plane_[r].d);
-    }
-  }
   for (size_t i = 0; i < num_cells; ++i) {
     if (cell_region_[i] < 0) continue;
     cell_region_[i] = region_root_[static_cast<size_t>(cell_region_[i])];
