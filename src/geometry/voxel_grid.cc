@@ -23,7 +23,8 @@ constexpr uint64_t kFieldMask = (uint64_t{1} << kFieldBits) - 1;
 constexpr uint64_t kInvalidKey = ~uint64_t{0};
 constexpr size_t kBandPoints = 16384;
 constexpr size_t kVoxelGrain = 2048;
-constexpr size_t kMergeGrain = 8192;  // sorted band voxels per merge chunk
+constexpr uint64_t kMaxCells = uint64_t{1} << 20;  // cells of the column table, at most
+constexpr uint32_t kNoVoxel = ~uint32_t{0};
 
 // Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
 inline uint64_t PackKey(int32_t x, int32_t y, int32_t z) {
@@ -218,223 +219,248 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   grid->width = cloud.width;
   grid->height = cloud.height;
   grid->params = params_;
+  grid->adjacency_offsets.clear();
+  grid->adjacency.clear();
+  grid->normal.clear();
+  grid->curvature.clear();
 
-  // 1. Per band of points (fixed size, so the partition does not depend on the pool): keys,
-  // distinct keys in first-occurrence order and their sums. Neighbouring pixels mostly share
-  // a voxel, so the left and upper pixels are checked before the band's hash map.
+  // 1. Keys of all points (invalid points get no voxel here); per band the number of valid
+  // keys, the box of their (x, y) and, when the ranges of x are already cut, the band's points
+  // of each range in point order.
   pixel_key_.resize(n);
   grid->point_voxel.resize(n);
   const bool camera = params_.use_single_camera_transform;
   const float inv_res = 1.0f / params_.voxel_resolution_m;
   const size_t num_bands = core::ThreadPool::NumChunks(n, kBandPoints);
-  if (bands_.size() < num_bands) bands_.resize(num_bands);
+  const size_t num_partitions =
+      static_cast<size_t>(pool != nullptr ? std::max(1, pool->num_threads()) : 1);
+  const bool cut = CutFromHistory(num_partitions);
+  band_range_.resize(num_bands);
+  if (band_points_.size() < num_bands * num_partitions) {
+    band_points_.resize(num_bands * num_partitions);
+  }
   ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
-    Band& band = bands_[begin / kBandPoints];
-    band.map.Clear(std::max<size_t>(band.size + band.size / 4, 1024));
-    size_t count = 0;
-    const core::Vec3f* xyz = cloud.xyz.data();
+    const size_t band = begin / kBandPoints;
     uint64_t* keys = pixel_key_.data();
     int32_t* point_voxel = grid->point_voxel.data();
-    QuantizePoints(xyz + begin, end - begin, camera, inv_res, keys + begin);
+    QuantizePoints(cloud.xyz.data() + begin, end - begin, camera, inv_res, keys + begin);
+    BandRange range{0, kFieldMask, 0, kFieldMask, 0};
     for (size_t i = begin; i < end; ++i) {
-      const core::Vec3f& p = xyz[i];
       const uint64_t key = keys[i];
       if (key == kInvalidKey) {
         point_voxel[i] = -1;
         continue;
       }
-      int32_t vox;
-      if (i > begin && keys[i - 1] == key && (!organized || i % w != 0)) {
-        vox = point_voxel[i - 1];
-      } else if (organized && i >= begin + w && keys[i - w] == key) {
-        vox = point_voxel[i - w];
-      } else {
-        bool inserted = false;
-        vox = static_cast<int32_t>(
-            band.map.FindOrInsert(key, static_cast<uint32_t>(count), &inserted));
-        if (inserted) {
-          if (count == band.key.size()) {
-            const size_t capacity = std::max<size_t>(1024, 2 * count);
-            band.key.resize(capacity);
-            band.count.resize(capacity);
-            band.sums.resize(9 * capacity);
-            band.color.resize(capacity);
+      const uint64_t x = key >> (2 * kFieldBits), y = (key >> kFieldBits) & kFieldMask;
+      ++range.valid;
+      range.x_min = std::min(range.x_min, x);
+      range.x_max = std::max(range.x_max, x);
+      range.y_min = std::min(range.y_min, y);
+      range.y_max = std::max(range.y_max, y);
+    }
+    band_range_[band] = range;
+    if (cut) CollectBandPoints(band, begin, end);
+  });
+  BandRange box{0, kFieldMask, 0, kFieldMask, 0};
+  for (const BandRange& range : band_range_) {
+    if (range.valid == 0) continue;
+    box.valid += range.valid;
+    box.x_min = std::min(box.x_min, range.x_min);
+    box.x_max = std::max(box.x_max, range.x_max);
+    box.y_min = std::min(box.y_min, range.y_min);
+    box.y_max = std::max(box.y_max, range.y_max);
+  }
+  if (!cut && box.valid > 0) {
+    // No earlier frame: even cuts of this frame's range of x.
+    for (size_t p = 1; p < num_partitions; ++p) {
+      partition_cut_[p] = box.x_min + (box.x_max + 1 - box.x_min) * p / num_partitions;
+    }
+    ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
+      CollectBandPoints(begin / kBandPoints, begin, end);
+    });
+  }
+  for (size_t p = 0; p < num_partitions; ++p) {
+    Partition& part = partitions_[p];
+    part.x_begin = std::clamp(partition_cut_[p], box.x_min, box.x_max + 1);
+    part.x_end = std::clamp(partition_cut_[p + 1], part.x_begin, box.x_max + 1);
+  }
+  if (box.valid == 0) {
+    for (Partition& part : partitions_) part.size = 0;
+    x_histogram_.clear();
+    grid->key.clear();
+    grid->coord.clear();
+    grid->num_points.clear();
+    grid->point_sums.clear();
+    grid->centroid.clear();
+    grid->mean_color.clear();
+    return;
+  }
+
+  // 2. The cell table: one cell per column, x-major; where the box has more columns than
+  // kMaxCells, a cell holds 2^y_shift consecutive columns of one x (its chain stays sorted by
+  // key, so cells in order are still voxels in key order).
+  const uint64_t x0 = box.x_min, y0 = box.y_min;
+  const uint64_t nx = box.x_max - x0 + 1, ny = box.y_max - y0 + 1;
+  int y_shift = 0;
+  while (nx * (((ny - 1) >> y_shift) + 1) > kMaxCells && (ny >> y_shift) > 1) ++y_shift;
+  const uint64_t ny_cells = ((ny - 1) >> y_shift) + 1;
+  cell_head_.assign(nx * ny_cells, kNoVoxel);
+  x_histogram_.assign(nx, 0);
+  x_histogram_min_ = x0;
+  auto cell_of = [&](uint64_t key) {
+    return ((key >> (2 * kFieldBits)) - x0) * ny_cells +
+           ((((key >> kFieldBits) & kFieldMask) - y0) >> y_shift);
+  };
+
+  // 3. Each range of x: its voxels in first-occurrence order, linked into their cells in key
+  // order; the cells in order then rank them by key. point_voxel holds the range's voxel for
+  // now, and the points per x are counted for the next frame's ranges.
+  ForChunks(pool, num_partitions, 1, [&](size_t pb, size_t pe) {
+    for (size_t p = pb; p < pe; ++p) {
+      Partition& part = partitions_[p];
+      uint32_t count = 0;
+      const uint64_t* keys = pixel_key_.data();
+      int32_t* point_voxel = grid->point_voxel.data();
+      uint32_t* head = cell_head_.data();
+      uint32_t* hist = x_histogram_.data();
+      for (size_t b = 0; b < num_bands; ++b) {
+        for (const uint32_t i : band_points_[b * num_partitions + p]) {
+          const uint64_t key = keys[i];
+          ++hist[(key >> (2 * kFieldBits)) - x0];
+          // Equal keys lie in the same range, so the left and upper pixels' voxels are this
+          // range's when their keys match.
+          if (i > 0 && keys[i - 1] == key && (!organized || i % w != 0)) {
+            point_voxel[i] = point_voxel[i - 1];
+            continue;
           }
-          band.key[count] = key;
-          band.count[count] = 0;
-          for (int j = 0; j < 9; ++j) band.sums[9 * count + j] = 0.0;
-          band.color[count] = core::Vec3f{};
-          ++count;
+          if (organized && i >= w && keys[i - w] == key) {
+            point_voxel[i] = point_voxel[i - w];
+            continue;
+          }
+          uint32_t* link = &head[cell_of(key)];
+          while (*link != kNoVoxel && part.key[*link] < key) link = &part.next[*link];
+          if (*link == kNoVoxel || part.key[*link] != key) {
+            if (count == part.key.size()) {
+              const size_t capacity = std::max<size_t>(1024, 2 * size_t{count});
+              part.key.resize(capacity);
+              part.next.resize(capacity);
+              // `link` may point into `next`, which moved: find it again.
+              link = &head[cell_of(key)];
+              while (*link != kNoVoxel && part.key[*link] < key) link = &part.next[*link];
+            }
+            part.key[count] = key;
+            part.next[count] = *link;
+            *link = count++;
+          }
+          point_voxel[i] = static_cast<int32_t>(*link);
         }
       }
-      point_voxel[i] = vox;
-      const size_t v = static_cast<size_t>(vox);
-      AddToSums(p, &band.sums[9 * v]);
-      ++band.count[v];
-      if (with_color) {
-        const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
-        core::Vec3f& m = band.color[v];
-        m.x += rgb.r;
-        m.y += rgb.g;
-        m.z += rgb.b;
+      part.size = count;
+      part.rank.resize(count);
+      uint32_t r = 0;
+      const uint64_t cell_begin = (part.x_begin - x0) * ny_cells;
+      const uint64_t cell_end = (part.x_end - x0) * ny_cells;
+      for (uint64_t c = cell_begin; c < cell_end && r < count; ++c) {
+        for (uint32_t v = head[c]; v != kNoVoxel; v = part.next[v]) {
+          part.rank[v] = r++;
+        }
       }
+      CLUTTERSEG_DEMAND(r == count);
     }
-    band.size = count;
   });
+  size_t num_voxels = 0;
+  for (Partition& part : partitions_) {
+    part.first_voxel = num_voxels;
+    num_voxels += part.size;
+  }
 
-  // 2. Merge: all band voxels (a key may occur in several bands) sorted by key with a stable
-  // radix sort, so that equal keys stay in band order; each run of equal keys is one voxel,
-  // whose sums are added in band order (a fixed summation order for any pool size).
-  band_offset_.resize(num_bands + 1);
-  band_offset_[0] = 0;
-  for (size_t b = 0; b < num_bands; ++b) band_offset_[b + 1] = band_offset_[b] + bands_[b].size;
-  const size_t num_entries = band_offset_[num_bands];
-  entry_key_.resize(num_entries);
-  entry_band_.resize(num_entries);
-  for (size_t b = 0; b < num_bands; ++b) {
-    Band& band = bands_[b];
-    band.remap.resize(band.size);
-    std::copy_n(band.key.begin(), band.size, entry_key_.begin() + band_offset_[b]);
-    std::fill_n(entry_band_.begin() + band_offset_[b], band.size, static_cast<uint32_t>(b));
-  }
-  SortByKey(num_entries);
-  // Each run of equal keys is one voxel. Chunks of whole runs are independent: their runs are
-  // counted, numbered by a prefix sum, and summed in parallel (the chunking depends only on
-  // the entries, so the result does not depend on the pool).
-  const size_t num_merge_chunks = core::ThreadPool::NumChunks(num_entries, kMergeGrain);
-  merge_begin_.resize(num_merge_chunks + 1);
-  merge_first_voxel_.resize(num_merge_chunks + 1);
-  merge_begin_[0] = 0;
-  for (size_t c = 1; c < num_merge_chunks; ++c) {
-    size_t b = std::max(c * kMergeGrain, merge_begin_[c - 1]);
-    while (b < num_entries && sort_buf_[b].first == sort_buf_[b - 1].first) ++b;
-    merge_begin_[c] = b;
-  }
-  merge_begin_[num_merge_chunks] = num_entries;
-  ForChunks(pool, num_merge_chunks, 1, [&](size_t cb, size_t ce) {
-    for (size_t c = cb; c < ce; ++c) {
-      size_t runs = 0;
-      for (size_t k = merge_begin_[c]; k < merge_begin_[c + 1]; ++k) {
-        runs += k == merge_begin_[c] || sort_buf_[k].first != sort_buf_[k - 1].first ? 1 : 0;
-      }
-      merge_first_voxel_[c + 1] = runs;
-    }
-  });
-  merge_first_voxel_[0] = 0;
-  for (size_t c = 0; c < num_merge_chunks; ++c) {
-    merge_first_voxel_[c + 1] += merge_first_voxel_[c];
-  }
-  const size_t num_voxels = merge_first_voxel_[num_merge_chunks];
+  // 4. Each range again: its voxels' keys in order, then the points' grid voxels and the
+  // voxels' sums (added in point order), then centroids and mean colours.
   grid->key.resize(num_voxels);
   grid->coord.resize(num_voxels);
   grid->num_points.resize(num_voxels);
   grid->point_sums.resize(9 * num_voxels);
   grid->centroid.resize(num_voxels);
   grid->mean_color.resize(with_color ? num_voxels : 0);
-  ForChunks(pool, num_merge_chunks, 1, [&](size_t cb, size_t ce) {
-    for (size_t c = cb; c < ce; ++c) {
-      size_t v = merge_first_voxel_[c];
-      for (size_t k = merge_begin_[c]; k < merge_begin_[c + 1]; ++k) {
-        const uint32_t e = sort_buf_[k].second;
-        const uint32_t b = entry_band_[e];
-        const size_t l = e - band_offset_[b];
-        const Band& band = bands_[b];
-        if (k > merge_begin_[c] && sort_buf_[k].first != sort_buf_[k - 1].first) ++v;
-        double* dst = &grid->point_sums[9 * v];
-        const double* src = &band.sums[9 * l];
-        if (k == merge_begin_[c] || sort_buf_[k].first != sort_buf_[k - 1].first) {
-          const uint64_t key = entry_key_[e];
-          grid->key[v] = key;
-          grid->coord[v] = UnpackKey(key);
-          grid->num_points[v] = band.count[l];
-          for (int j = 0; j < 9; ++j) dst[j] = src[j];
-          if (with_color) grid->mean_color[v] = band.color[l];
-        } else {
-          // Further bands of the same voxel, added in band order.
-          grid->num_points[v] += band.count[l];
-          for (int j = 0; j < 9; ++j) dst[j] += src[j];
+  ForChunks(pool, num_partitions, 1, [&](size_t pb, size_t pe) {
+    for (size_t p = pb; p < pe; ++p) {
+      const Partition& part = partitions_[p];
+      const size_t first = part.first_voxel, last = first + part.size;
+      for (size_t l = 0; l < part.size; ++l) {
+        const uint64_t key = part.key[l];
+        grid->key[first + part.rank[l]] = key;
+        grid->coord[first + part.rank[l]] = UnpackKey(key);
+      }
+      std::fill(grid->num_points.begin() + first, grid->num_points.begin() + last, 0u);
+      std::fill(grid->point_sums.begin() + 9 * first, grid->point_sums.begin() + 9 * last, 0.0);
+      if (with_color) {
+        std::fill(grid->mean_color.begin() + first, grid->mean_color.begin() + last, core::Vec3f{});
+      }
+      const core::Vec3f* xyz = cloud.xyz.data();
+      int32_t* point_voxel = grid->point_voxel.data();
+      for (size_t b = 0; b < num_bands; ++b) {
+        for (const uint32_t i : band_points_[b * num_partitions + p]) {
+          const uint32_t v =
+              static_cast<uint32_t>(first) + part.rank[static_cast<size_t>(point_voxel[i])];
+          point_voxel[i] = static_cast<int32_t>(v);
+          AddToSums(xyz[i], &grid->point_sums[9 * size_t{v}]);
+          ++grid->num_points[v];
           if (with_color) {
+            const core::Rgb8 rgb = core::UnpackRgba(cloud.rgba[i]);
             core::Vec3f& m = grid->mean_color[v];
-            m.x += band.color[l].x;
-            m.y += band.color[l].y;
-            m.z += band.color[l].z;
+            m.x += rgb.r;
+            m.y += rgb.g;
+            m.z += rgb.b;
           }
         }
-        bands_[b].remap[l] = static_cast<uint32_t>(v);
+      }
+      for (size_t v = first; v < last; ++v) {
+        const double* src = &grid->point_sums[9 * v];
+        const double inv = 1.0 / grid->num_points[v];
+        grid->centroid[v] =
+            core::Vec3f{static_cast<float>(src[0] * inv), static_cast<float>(src[1] * inv),
+                        static_cast<float>(src[2] * inv)};
+        if (with_color) {
+          const float finv = static_cast<float>(inv);
+          core::Vec3f& m = grid->mean_color[v];
+          m = core::Vec3f{m.x * finv, m.y * finv, m.z * finv};
+        }
       }
     }
   });
-
-  // 3. Centroids and mean colours; points get their final voxel index.
-  ForChunks(pool, num_voxels, kVoxelGrain, [&](size_t b, size_t e) {
-    for (size_t v = b; v < e; ++v) {
-      const double* src = &grid->point_sums[9 * v];
-      const double inv = 1.0 / grid->num_points[v];
-      grid->centroid[v] =
-          core::Vec3f{static_cast<float>(src[0] * inv), static_cast<float>(src[1] * inv),
-                      static_cast<float>(src[2] * inv)};
-      if (with_color) {
-        const float finv = static_cast<float>(inv);
-        core::Vec3f& m = grid->mean_color[v];
-        m = core::Vec3f{m.x * finv, m.y * finv, m.z * finv};
-      }
-    }
-  });
-  ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
-    const std::vector<uint32_t>& band_remap = bands_[begin / kBandPoints].remap;
-    for (size_t i = begin; i < end; ++i) {
-      int32_t& vox = grid->point_voxel[i];
-      if (vox >= 0) vox = static_cast<int32_t>(band_remap[static_cast<size_t>(vox)]);
-    }
-  });
-  grid->adjacency_offsets.clear();
-  grid->adjacency.clear();
-  grid->normal.clear();
-  grid->curvature.clear();
 }
 
-void Voxelizer::SortByKey(size_t num_entries) {
-  // LSD radix sort of the keys re-packed densely over their actual coordinate ranges (which
-  // keeps their order): two or three stable passes instead of a comparison sort.
-  sort_buf_.resize(num_entries);
-  sort_tmp_.resize(num_entries);
-  if (num_entries == 0) return;
-  uint64_t lo[3] = {kFieldMask, kFieldMask, kFieldMask};
-  uint64_t hi[3] = {0, 0, 0};
-  for (size_t v = 0; v < num_entries; ++v) {
-    const uint64_t key = entry_key_[v];
-    for (int f = 0; f < 3; ++f) {
-      const uint64_t field = (key >> (kFieldBits * (2 - f))) & kFieldMask;
-      lo[f] = std::min(lo[f], field);
-      hi[f] = std::max(hi[f], field);
+bool Voxelizer::CutFromHistory(size_t num_partitions) {
+  partitions_.resize(num_partitions);
+  // Range p takes the x in [cut[p], cut[p + 1]): the first from 0, the last to the end.
+  partition_cut_.assign(num_partitions + 1, 0);
+  partition_cut_.back() = kFieldMask + 1;
+  if (num_partitions == 1) return true;
+  // Cut where the previous frame's points split evenly (consecutive frames of a stream look
+  // alike). Any cuts give the same grid: they only balance the work.
+  size_t total = 0;
+  for (const uint32_t c : x_histogram_) total += c;
+  if (total == 0) return false;
+  size_t p = 1, running = 0;
+  for (size_t b = 0; b < x_histogram_.size() && p < num_partitions; ++b) {
+    running += x_histogram_[b];
+    while (p < num_partitions && running * num_partitions >= total * p) {
+      partition_cut_[p++] = x_histogram_min_ + b + 1;
     }
   }
-  const uint64_t ny = hi[1] - lo[1] + 1, nz = hi[2] - lo[2] + 1;
-  const uint64_t max_dense = ((hi[0] - lo[0]) * ny + (hi[1] - lo[1])) * nz + (hi[2] - lo[2]);
-  for (size_t v = 0; v < num_entries; ++v) {
-    const uint64_t key = entry_key_[v];
-    const uint64_t x = ((key >> (2 * kFieldBits)) & kFieldMask) - lo[0];
-    const uint64_t y = ((key >> kFieldBits) & kFieldMask) - lo[1];
-    const uint64_t z = (key & kFieldMask) - lo[2];
-    sort_buf_[v] = {(x * ny + y) * nz + z, static_cast<uint32_t>(v)};
-  }
-  constexpr int kDigitBits = 11;
-  constexpr size_t kBuckets = size_t{1} << kDigitBits;
-  size_t count[kBuckets];
-  for (int shift = 0; shift < 64 && (max_dense >> shift) != 0; shift += kDigitBits) {
-    std::fill_n(count, kBuckets, 0);
-    for (size_t v = 0; v < num_entries; ++v)
-      ++count[(sort_buf_[v].first >> shift) & (kBuckets - 1)];
-    size_t sum = 0;
-    for (size_t d = 0; d < kBuckets; ++d) {
-      const size_t c = count[d];
-      count[d] = sum;
-      sum += c;
-    }
-    for (size_t v = 0; v < num_entries; ++v) {
-      sort_tmp_[count[(sort_buf_[v].first >> shift) & (kBuckets - 1)]++] = sort_buf_[v];
-    }
-    sort_buf_.swap(sort_tmp_);
+  return true;
+}
+
+void Voxelizer::CollectBandPoints(size_t band, size_t begin, size_t end) {
+  const size_t num_partitions = partitions_.size();
+  for (size_t p = 0; p < num_partitions; ++p) band_points_[band * num_partitions + p].clear();
+  for (size_t i = begin; i < end; ++i) {
+    const uint64_t key = pixel_key_[i];
+    if (key == kInvalidKey) continue;
+    const uint64_t x = key >> (2 * kFieldBits);
+    size_t p = 0;
+    while (p + 1 < num_partitions && x >= partition_cut_[p + 1]) ++p;
+    band_points_[band * num_partitions + p].push_back(static_cast<uint32_t>(i));
   }
 }
 

@@ -2,13 +2,11 @@
 
 #include <cstdint>
 #include <string_view>
-#include <utility>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/core/types.h"
-#include "clutterseg/geometry/key_index_map.h"
 
 namespace clutterseg::geometry {
 
@@ -109,9 +107,14 @@ class Voxelizer {
 
   /// Quantises the valid points of `cloud` (organized or not; colour averaged when
   /// `mean_color` and the cloud has colour) and fills the voxel fields of `grid` (not
-  /// adjacency or normals). O(points + V). For organized clouds a point reuses the voxel of
-  /// its left or upper pixel when their keys match, so only about one point in six needs a
-  /// hash lookup.
+  /// adjacency or normals). O(points + V). Voxels are found through a dense table of the
+  /// voxel columns (x, y) over the points' bounding box, each holding its voxels sorted by z,
+  /// so the grid comes out in key order without a sort or a hash map. The points are split
+  /// into ranges of x, one per thread of the pool, each range building its part of the grid
+  /// on its own (cut where the previous frame's points split evenly: the grid does not depend
+  /// on the cuts); a voxel's sums are added in point order whatever the number of ranges. For
+  /// organized clouds a point reuses the voxel of its left or upper pixel when their keys match, so
+  /// only about one point in six searches the table.
   void Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid);
   /// Fills the 26-neighbourhood CSR of a voxelized grid by a linear sweep over the voxel
   /// columns (no lookups). O(V).
@@ -130,33 +133,47 @@ class Voxelizer {
   float VoxelSizeAt(float z_m) const;
 
  private:
-  void SortByKey(size_t num_entries);  // fills sort_buf_ from entry_key_
-
-  // Voxels of one band of points, in first-occurrence order, with their sums.
-  struct Band {
-    KeyIndexMap map;
+  // The voxels of one range of x, [x_begin, x_end) in key fields: every voxel lies in exactly
+  // one range, and the ranges in order concatenate to the sorted grid.
+  struct Partition {
+    uint64_t x_begin{0};
+    uint64_t x_end{0};
+    // Voxels in first-occurrence order: key and the next voxel of their cell.
     std::vector<uint64_t> key;
-    std::vector<uint32_t> count;
-    std::vector<double> sums;  // 9 per voxel
-    std::vector<core::Vec3f> color;
-    std::vector<uint32_t> remap;  // band voxel -> merged voxel
+    std::vector<uint32_t> next;
     size_t size{0};
+    std::vector<uint32_t> rank;  // voxel -> position in key order
+    size_t first_voxel{0};       // of the grid
   };
+  // Per band of points: the number of valid keys and the ranges of their x and y fields.
+  struct BandRange {
+    size_t valid{0};
+    uint64_t x_min{0}, x_max{0};
+    uint64_t y_min{0}, y_max{0};
+  };
+
+  // Cuts the ranges of x from the previous frame's points per x; false when there is none
+  // (and more than one range).
+  bool CutFromHistory(size_t num_partitions);
+  // The valid points of [begin, end) by range of x, into band_points_ of `band`.
+  void CollectBandPoints(size_t band, size_t begin, size_t end);
 
   const VoxelGridParams params_;
   core::ThreadPool* const pool_;
-  std::vector<Band> bands_;
   std::vector<uint64_t> pixel_key_;
-  // Voxels of all bands, concatenated in band order, for the merge.
-  std::vector<size_t> band_offset_;
-  std::vector<uint64_t> entry_key_;
-  std::vector<uint32_t> entry_band_;
-  std::vector<std::pair<uint64_t, uint32_t>> sort_buf_;  // (dense key, entry)
-  std::vector<std::pair<uint64_t, uint32_t>> sort_tmp_;
-  // Merge chunks (whole runs of equal keys): first sorted entry and first voxel, with an end
-  // entry each.
-  std::vector<size_t> merge_begin_;
-  std::vector<size_t> merge_first_voxel_;
+  std::vector<BandRange> band_range_;
+  // Points per x of the last frame, from x_histogram_min_ on: where the next frame's ranges
+  // are cut.
+  std::vector<uint32_t> x_histogram_;
+  uint64_t x_histogram_min_{0};
+  std::vector<uint64_t> partition_cut_;  // range p is [cut[p], cut[p + 1]) in x
+  // Per band and range (band-major): the band's valid points of the range, ascending.
+  std::vector<std::vector<uint32_t>> band_points_;
+  std::vector<Partition> partitions_;
+  // Cells of the (x, y) box, x-major: the first voxel (in key order) of each, a chain through
+  // Partition::next sorted by key. A cell is one column of voxels, or a few consecutive ones
+  // along y when the box would otherwise be too large.
+  std::vector<uint32_t> cell_head_;
   // Columns of voxels sharing (x, y): packed (x, y) and first voxel; one extra end entry.
   std::vector<uint64_t> column_key_;
   std::vector<uint32_t> column_begin_;

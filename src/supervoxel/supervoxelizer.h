@@ -7,6 +7,7 @@
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/core/types.h"
+#include "clutterseg/geometry/key_index_map.h"
 #include "clutterseg/geometry/voxel_grid.h"
 #include "clutterseg/supervoxel/supervoxel_params.h"
 #include "clutterseg/supervoxel/supervoxels.h"

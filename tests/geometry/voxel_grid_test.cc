@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <random>
 #include <set>
 #include <stdexcept>
@@ -13,6 +14,7 @@
 
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/thread_pool.h"
+#include "clutterseg/geometry/moments.h"
 
 namespace clutterseg::geometry {
 namespace {
@@ -330,6 +332,70 @@ TEST(VoxelGrid, OutputIsIdenticalForAnyPoolSizeAndReuse) {
       ASSERT_EQ(grid.normal[v].y, reference.normal[v].y);
       ASSERT_EQ(grid.normal[v].z, reference.normal[v].z);
       ASSERT_EQ(grid.centroid[v].z, reference.centroid[v].z);
+    }
+  }
+}
+
+// The grid of a cloud from first principles: the distinct quantised coordinates in
+// lexicographic order, each with its points' count and sums added in point order.
+void ExpectBruteForceGrid(const core::PointCloud& cloud, const Voxelizer& quantizer,
+                          const VoxelGrid& grid) {
+  std::map<std::tuple<int32_t, int32_t, int32_t>, std::pair<uint32_t, std::vector<double>>> ref;
+  std::vector<std::tuple<int32_t, int32_t, int32_t>> point_coord(cloud.size());
+  std::vector<bool> valid(cloud.size(), false);
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    VoxelCoord c;
+    if (!std::isfinite(cloud.xyz[i].x) || !std::isfinite(cloud.xyz[i].y) ||
+        !std::isfinite(cloud.xyz[i].z) || !quantizer.Quantize(cloud.xyz[i], &c)) {
+      continue;
+    }
+    valid[i] = true;
+    point_coord[i] = {c.x, c.y, c.z};
+    auto& entry = ref[point_coord[i]];
+    entry.second.resize(9, 0.0);
+    ++entry.first;
+    AddToSums(cloud.xyz[i], entry.second.data());
+  }
+  ASSERT_EQ(grid.size(), ref.size());
+  size_t v = 0;
+  std::map<std::tuple<int32_t, int32_t, int32_t>, int32_t> index;
+  for (const auto& [coord, entry] : ref) {
+    EXPECT_EQ(grid.coord[v].x, std::get<0>(coord));
+    EXPECT_EQ(grid.coord[v].y, std::get<1>(coord));
+    ASSERT_EQ(grid.coord[v].z, std::get<2>(coord)) << v;
+    EXPECT_EQ(grid.key[v], PackVoxelKey(grid.coord[v]));
+    EXPECT_EQ(grid.num_points[v], entry.first);
+    for (int j = 0; j < 9; ++j) ASSERT_EQ(grid.point_sums[9 * v + j], entry.second[j]) << v;
+    index[coord] = static_cast<int32_t>(v++);
+  }
+  for (size_t i = 0; i < cloud.size(); ++i) {
+    ASSERT_EQ(grid.point_voxel[i], valid[i] ? index[point_coord[i]] : -1) << i;
+  }
+}
+
+TEST(VoxelGrid, EqualsABruteForceGridForAnyPoolOnNarrowAndVeryWideClouds) {
+  // An organized noisy plane in the camera space, and an unorganized cloud 40 m across on a
+  // 7.5 mm Euclidean grid, whose (x, y) box of ~28 million columns is too large for one cell
+  // per column.
+  core::PointCloud plane = PlaneCloud({0.1f, -0.4f, -0.9f}, -1.0f);
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.f, 0.004f);
+  for (auto& p : plane.xyz) p.z += noise(rng);
+  core::PointCloud wide = RandomCloud(11, 20000);
+  std::uniform_real_distribution<float> far(-20.f, 20.f);
+  for (size_t i = 0; i < wide.size(); i += 7) wide.xyz[i] = {far(rng), far(rng), far(rng)};
+  const std::vector<std::pair<const core::PointCloud*, VoxelGridParams>> cases = {
+      {&plane, CameraSpace(0.0075f)}, {&wide, Euclidean(0.0075f)}};
+  for (const auto& [cloud, params] : cases) {
+    for (int threads : {1, 2, 4}) {
+      core::ThreadPool pool(threads);
+      Voxelizer dut(params, &pool);
+      VoxelGrid grid;
+      dut.Voxelize(*cloud, false, &grid);  // the first frame: even ranges of x
+      ExpectBruteForceGrid(*cloud, dut, grid);
+      dut.Voxelize(RandomCloud(2, 500), false, &grid);  // ranges cut for another frame
+      dut.Voxelize(*cloud, false, &grid);
+      ExpectBruteForceGrid(*cloud, dut, grid);
     }
   }
 }
