@@ -25,6 +25,7 @@ constexpr size_t kBandPoints = 16384;
 constexpr size_t kVoxelGrain = 2048;
 constexpr uint64_t kMaxCells = uint64_t{1} << 20;  // cells of the column table, at most
 constexpr uint32_t kNoVoxel = ~uint32_t{0};
+constexpr size_t kMaxPartitions = 64;  // ranges of x, at most (one per thread)
 
 // Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
 inline uint64_t PackKey(int32_t x, int32_t y, int32_t z) {
@@ -232,13 +233,12 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   const bool camera = params_.use_single_camera_transform;
   const float inv_res = 1.0f / params_.voxel_resolution_m;
   const size_t num_bands = core::ThreadPool::NumChunks(n, kBandPoints);
-  const size_t num_partitions =
-      static_cast<size_t>(pool != nullptr ? std::max(1, pool->num_threads()) : 1);
+  const size_t num_partitions = std::min(
+      kMaxPartitions, static_cast<size_t>(pool != nullptr ? std::max(1, pool->num_threads()) : 1));
   const bool cut = CutFromHistory(num_partitions);
   band_range_.resize(num_bands);
-  if (band_points_.size() < num_bands * num_partitions) {
-    band_points_.resize(num_bands * num_partitions);
-  }
+  band_points_.resize(n);
+  band_offset_.resize(num_bands * (num_partitions + 1));
   ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
     const size_t band = begin / kBandPoints;
     uint64_t* keys = pixel_key_.data();
@@ -324,7 +324,9 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       uint32_t* head = cell_head_.data();
       uint32_t* hist = x_histogram_.data();
       for (size_t b = 0; b < num_bands; ++b) {
-        for (const uint32_t i : band_points_[b * num_partitions + p]) {
+        const size_t* const offset = &band_offset_[b * (num_partitions + 1)];
+        for (size_t j = offset[p]; j < offset[p + 1]; ++j) {
+          const size_t i = band_points_[j];
           const uint64_t key = keys[i];
           ++hist[(key >> (2 * kFieldBits)) - x0];
           // Equal keys lie in the same range, so the left and upper pixels' voxels are this
@@ -399,7 +401,9 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       const core::Vec3f* xyz = cloud.xyz.data();
       int32_t* point_voxel = grid->point_voxel.data();
       for (size_t b = 0; b < num_bands; ++b) {
-        for (const uint32_t i : band_points_[b * num_partitions + p]) {
+        const size_t* const offset = &band_offset_[b * (num_partitions + 1)];
+        for (size_t j = offset[p]; j < offset[p + 1]; ++j) {
+          const size_t i = band_points_[j];
           const uint32_t v =
               static_cast<uint32_t>(first) + part.rank[static_cast<size_t>(point_voxel[i])];
           point_voxel[i] = static_cast<int32_t>(v);
@@ -453,14 +457,27 @@ bool Voxelizer::CutFromHistory(size_t num_partitions) {
 
 void Voxelizer::CollectBandPoints(size_t band, size_t begin, size_t end) {
   const size_t num_partitions = partitions_.size();
-  for (size_t p = 0; p < num_partitions; ++p) band_points_[band * num_partitions + p].clear();
-  for (size_t i = begin; i < end; ++i) {
-    const uint64_t key = pixel_key_[i];
-    if (key == kInvalidKey) continue;
+  auto partition_of = [&](uint64_t key) {
     const uint64_t x = key >> (2 * kFieldBits);
     size_t p = 0;
     while (p + 1 < num_partitions && x >= partition_cut_[p + 1]) ++p;
-    band_points_[band * num_partitions + p].push_back(static_cast<uint32_t>(i));
+    return p;
+  };
+  // Counted first, then written: the band's slice of band_points_ holds its valid points
+  // range by range, each in point order.
+  size_t* const offset = &band_offset_[band * (num_partitions + 1)];
+  std::fill(offset, offset + num_partitions + 1, 0);
+  for (size_t i = begin; i < end; ++i) {
+    if (pixel_key_[i] != kInvalidKey) ++offset[partition_of(pixel_key_[i]) + 1];
+  }
+  offset[0] = begin;
+  for (size_t p = 0; p < num_partitions; ++p) offset[p + 1] += offset[p];
+  size_t next[kMaxPartitions];
+  std::copy(offset, offset + num_partitions, next);
+  for (size_t i = begin; i < end; ++i) {
+    if (pixel_key_[i] != kInvalidKey) {
+      band_points_[next[partition_of(pixel_key_[i])]++] = static_cast<uint32_t>(i);
+    }
   }
 }
 

@@ -167,8 +167,10 @@ class Voxelizer {
   std::vector<uint32_t> x_histogram_;
   uint64_t x_histogram_min_{0};
   std::vector<uint64_t> partition_cut_;  // range p is [cut[p], cut[p + 1]) in x
-  // Per band and range (band-major): the band's valid points of the range, ascending.
-  std::vector<std::vector<uint32_t>> band_points_;
+  // The valid points of each band, range by range, each in point order; band b's range p is
+  // band_points_[band_offset_[b * (ranges + 1) + p] .. band_offset_[b * (ranges + 1) + p + 1]).
+  std::vector<uint32_t> band_points_;
+  std::vector<size_t> band_offset_;
   std::vector<Partition> partitions_;
   // Cells of the (x, y) box, x-major: the first voxel (in key order) of each, a chain through
   // Partition::next sorted by key. A cell is one column of voxels, or a few consecutive ones
