@@ -54,6 +54,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(linkage, crease_min_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(linkage, color_threshold),
       CLUTTERSEG_SEGMENTER_KEY(linkage, color_min_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, color_concavity_tolerance_deg),
 
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_angle_deg),

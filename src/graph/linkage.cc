@@ -255,6 +255,15 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   const bool crease = params_.crease_min_angle_deg > 0.f;
   const float crease_min_deg = crease ? params_.crease_min_angle_deg : kNever;
   const double sanity_min_cos = SanityMinCos(params_);
+  const CueUse use = Use(sv, cues);
+  const bool color = use.color;
+  const bool prepared = prepared_for_ == &sv;
+  prepared_for_ = nullptr;
+  // With colour the tolerance may be wider: the colour cut below judges what it lets in.
+  LinkageParams test = params_;
+  if (color && params_.color_concavity_tolerance_deg > 0.f) {
+    test.concavity_tolerance_deg = params_.color_concavity_tolerance_deg;
+  }
   convex_raw_.resize(slots);
   edge_class_.resize(slots);
   run([&](size_t i0, size_t i1) {
@@ -263,7 +272,7 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
         const uint32_t j = adj[s];
         if (j < i) continue;
         const ConnectionClass c =
-            ClassifyConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j], params_,
+            ClassifyConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j], test,
                                sanity_min_cos, crease_min_deg);
         edge_class_[s] = edge_class_[reverse_slot_[s]] = c;
         convex_raw_[s] = convex_raw_[reverse_slot_[s]] = c <= kMildConcave ? 1 : 0;
@@ -274,18 +283,12 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   // Cues that cut edges the convexity test keeps, judged on the test's verdicts (none reads
   // another's cuts): flags per slot of the lower id, applied afterwards.
   const bool jumps = params_.depth_jump_rel > 0.f;
-  const bool image_jumps = jumps && cues.cloud != nullptr && cues.cloud->organized() &&
-                           sv.width == cues.cloud->width && sv.height == cues.cloud->height &&
-                           sv.pixel_label.size() == cues.cloud->xyz.size();
-  const bool view_jumps = jumps && !image_jumps && cues.voxels != nullptr &&
-                          cues.voxel_supervoxel != nullptr &&
-                          cues.voxel_supervoxel->size() == cues.voxels->size();
-  const bool color = params_.color_threshold > 0.f && cues.cloud != nullptr &&
-                     cues.cloud->has_color() && cues.cloud->rgba.size() == sv.pixel_label.size();
+  const bool image_jumps = use.image_jumps;
+  const bool view_jumps = use.view_jumps;
   if (crease || image_jumps || view_jumps || color) {
     if (image_jumps) CountImageBorderPairs(sv, *cues.cloud);
     if (view_jumps) CountViewBorderPairs(sv, *cues.voxels, *cues.voxel_supervoxel);
-    if (color) MeanChroma(sv, *cues.cloud);
+    if (color && !prepared) MeanChroma(sv, *cues.cloud);
     const float cos_color =
         static_cast<float>(std::cos(double{params_.color_min_angle_deg} / kRadToDeg));
     const float color_limit2 = params_.color_threshold * params_.color_threshold;
@@ -453,6 +456,25 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   out->num_segments = num;
   out->segment_size.assign(num, 0);
   for (size_t i = 0; i < n; ++i) ++out->segment_size[out->segment[i]];
+}
+
+Linkage::CueUse Linkage::Use(const supervoxel::Supervoxels& sv, const LinkageCues& cues) const {
+  CueUse use;
+  const bool jumps = params_.depth_jump_rel > 0.f;
+  use.image_jumps = jumps && cues.cloud != nullptr && cues.cloud->organized() &&
+                    sv.width == cues.cloud->width && sv.height == cues.cloud->height &&
+                    sv.pixel_label.size() == cues.cloud->xyz.size();
+  use.view_jumps = jumps && !use.image_jumps && cues.voxels != nullptr &&
+                   cues.voxel_supervoxel != nullptr &&
+                   cues.voxel_supervoxel->size() == cues.voxels->size();
+  use.color = params_.color_threshold > 0.f && cues.cloud != nullptr && cues.cloud->has_color() &&
+              cues.cloud->rgba.size() == sv.pixel_label.size();
+  return use;
+}
+
+void Linkage::PrepareCues(const supervoxel::Supervoxels& sv, const LinkageCues& cues) {
+  if (Use(sv, cues).color) MeanChroma(sv, *cues.cloud);
+  prepared_for_ = &sv;
 }
 
 void Linkage::CountImageBorderPairs(const supervoxel::Supervoxels& sv,

@@ -76,15 +76,33 @@ class Linkage {
   void Compute(const supervoxel::Supervoxels& supervoxels, const PatchFeatures& features,
                const LinkageCues& cues, LinkageResult* result);
 
+  /// Computes the mean chromaticities of the supervoxels (a pass over the label image, when
+  /// the colour cut is on and the cloud has colour) for the next Compute with the same
+  /// `supervoxels` and `cues`, on the pool, so that a Compute that then runs on a pool worker,
+  /// its loops inline, does not have to. Optional: Compute computes them itself when they
+  /// were not prepared for its `supervoxels`. Call it on the thread of Compute, before it.
+  void PrepareCues(const supervoxel::Supervoxels& supervoxels, const LinkageCues& cues);
+
   const LinkageParams& params() const { return params_; }
 
  private:
+  // Which cues the inputs allow. (The depth-jump counts need the convexity test's verdicts,
+  // so they stay in Compute.)
+  struct CueUse {
+    bool image_jumps{false};  // depth jumps on the organized image
+    bool view_jumps{false};   // depth jumps between voxels' view directions (unorganized)
+    bool color{false};        // the colour cut and its wider concavity tolerance
+  };
+  CueUse Use(const supervoxel::Supervoxels& sv, const LinkageCues& cues) const;
+
   // Depth-jump evidence per CSR slot of the lower supervoxel id (border_pairs_, jump_pairs_).
   void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
   void CountViewBorderPairs(const supervoxel::Supervoxels& sv, const geometry::VoxelGrid& voxels,
                             const std::vector<int32_t>& voxel_supervoxel);
   // Mean chromaticity per supervoxel (mean_chroma_, 3 per supervoxel).
   void MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
+  // The supervoxels PrepareCues last ran for, until the Compute that uses its cues.
+  const supervoxel::Supervoxels* prepared_for_{nullptr};
 
   const LinkageParams params_;
   core::ThreadPool* const pool_;

@@ -17,6 +17,7 @@ void LinkageParams::ValidateOrThrow() const {
   check.InRange("crease_min_angle_deg", crease_min_angle_deg, 0.f, 180.f, "deg");
   check.InRange("color_threshold", color_threshold, 0.f, 1000.f);
   check.InRange("color_min_angle_deg", color_min_angle_deg, 0.f, 180.f, "deg");
+  check.InRange("color_concavity_tolerance_deg", color_concavity_tolerance_deg, 0.f, 180.f, "deg");
 }
 
 }  // namespace clutterseg::graph

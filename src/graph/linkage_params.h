@@ -46,8 +46,14 @@ struct LinkageParams {
   /// Colour cut (clouds with colour only): a concave connection whose normal angle is at
   /// least color_min_angle_deg is cut when the patches' mean chromaticities (255 r / (r + g +
   /// b), and g, b alike) differ by more than this Euclidean distance (0 = off).
-  float color_threshold{0.0f};
-  float color_min_angle_deg{20.0f};  ///< degrees; see color_threshold
+  float color_threshold{10.0f};
+  float color_min_angle_deg{35.0f};  ///< degrees; see color_threshold
+  /// With the colour cut on and a cloud with colour, the concavity tolerance is this instead
+  /// of concavity_tolerance_deg, degrees: concave connections between the two are kept only
+  /// between patches of one colour (the colour cut from color_min_angle_deg), which joins the
+  /// curved insides of cups and bowls. Without colour the cut cannot tell them from the
+  /// contacts between objects, and concavity_tolerance_deg holds (0 = always).
+  float color_concavity_tolerance_deg{60.0f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;

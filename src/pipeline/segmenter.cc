@@ -147,6 +147,10 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   // planes (serial work: hypotheses, then alpha-expansion) while a pool worker computes the
   // linkage, whose own loops then run inline on that worker in the same chunks (the same
   // result). Without a free worker this thread runs both, one after the other.
+  // The linkage's passes over the label image run first, on the whole pool.
+  const auto t_cues = Clock::now();
+  m.linkage.PrepareCues(m.sv, cues);
+  const double cues_ms = MsSince(t_cues);
   core::ForChunks(m.pool, 2, 1, [&](size_t begin, size_t) {
     if (begin == 0) {
       m.plane_labeler.Compute(m.sv, m.patch, m.fixed_planes, &m.planes);
@@ -154,7 +158,7 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
       m.linkage.Compute(m.sv, m.patch, cues, &m.link);
     }
   });
-  times[Stage::kLinkage] = m.link.time_ms;
+  times[Stage::kLinkage] = cues_ms + m.link.time_ms;
   times[Stage::kPlanes] = m.planes.hypotheses_ms;
   times[Stage::kExpansion] = m.planes.expansion_ms;
 

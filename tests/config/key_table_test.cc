@@ -160,6 +160,9 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_GT(defaults.objects.support_release_fraction, 0.f);
   EXPECT_GT(defaults.objects.support_reclaim_passes, 0);
   EXPECT_TRUE(defaults.objects.merge_small_groups);
+  EXPECT_GT(defaults.linkage.color_threshold, 0.f);
+  EXPECT_GT(defaults.linkage.color_concavity_tolerance_deg,
+            defaults.linkage.concavity_tolerance_deg);
   pipeline::SegmenterParams p;
   LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/paper.yaml", &p);
   EXPECT_EQ(p.supervoxel.normal_importance, 4.f);
@@ -167,6 +170,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_EQ(p.linkage.depth_jump_rel, 0.f);
   EXPECT_EQ(p.linkage.crease_min_angle_deg, 0.f);
   EXPECT_EQ(p.linkage.color_threshold, 0.f);
+  EXPECT_EQ(p.linkage.color_concavity_tolerance_deg, 0.f);
   EXPECT_EQ(p.objects.plane_merge_max_pair_angle_deg, 180.f);
   EXPECT_EQ(p.objects.support_release_fraction, 0.f);
   EXPECT_EQ(p.objects.support_reclaim_passes, 0);
@@ -181,6 +185,8 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_EQ(q.objects.support_release_fraction, 0.f);
   EXPECT_EQ(q.objects.support_reclaim_passes, 0);
   EXPECT_FALSE(q.objects.merge_small_groups);
+  EXPECT_EQ(q.linkage.color_threshold, 0.f);
+  EXPECT_EQ(q.linkage.color_concavity_tolerance_deg, 0.f);
   EXPECT_EQ(q.linkage.concavity_tolerance_deg, defaults.linkage.concavity_tolerance_deg);
   EXPECT_EQ(q.supervoxel.growth_regions, defaults.supervoxel.growth_regions);
   EXPECT_EQ(q.planes.inlier_distance_m, defaults.planes.inlier_distance_m);

@@ -480,10 +480,12 @@ TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
   LinkageCues cues;
   cues.cloud = &cloud;
   LinkageParams p;
+  p.color_threshold = 0.f;
   LinkageResult r;
   Linkage(p).Compute(g.sv, g.f, cues, &r);
-  EXPECT_EQ(g.Kept(r, 0, 1), 1);  // off by default
+  EXPECT_EQ(g.Kept(r, 0, 1), 1);  // off
   p.color_threshold = 25.f;
+  p.color_min_angle_deg = 20.f;
   Linkage(p).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 0);
   EXPECT_EQ(g.Kept(r, 2, 3), 1);  // convex: colour alone never cuts it
@@ -491,6 +493,47 @@ TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
   for (uint32_t& c : cloud.rgba) c = 0xffc81e14u;
   Linkage(p).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 1);
+}
+
+TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
+  // A 50 degree concavity (beyond the 35 degree tolerance): the inside of a bowl when both
+  // patches have one colour, a contact when they differ. With the defaults (tolerance 60
+  // with colour, colour cut from 35 degrees) it is kept only in the first case, and cut
+  // whatever the colours when the cloud has none.
+  HandGraph g;
+  const float b = 50.f * 3.14159265f / 180.f;
+  g.Add({0.f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
+  g.Add({0.03f, 0.295f, 1.f}, {-std::sin(b), -std::cos(b), 0.f}, PatchType::kPlanar);
+  g.Connect({{0, 1}});
+  core::PointCloud cloud;
+  cloud.width = 20;
+  cloud.height = 1;
+  for (int k = 0; k < 20; ++k) {
+    g.sv.pixel_label.push_back(k / 10);
+    cloud.xyz.push_back(g.f.centroid[static_cast<size_t>(k / 10)]);
+    cloud.rgba.push_back(0xffc81e14u);
+  }
+  g.sv.width = 20;
+  g.sv.height = 1;
+  LinkageCues cues;
+  cues.cloud = &cloud;
+  const LinkageParams p;
+  ASSERT_LT(p.concavity_tolerance_deg, 50.f);
+  ASSERT_GT(p.color_concavity_tolerance_deg, 50.f);
+  LinkageResult r;
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 1);  // one colour
+  for (int k = 10; k < 20; ++k) cloud.rgba[static_cast<size_t>(k)] = 0xff1e28c8u;
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 0);  // two colours
+  cloud.rgba.clear();
+  Linkage(p).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 0);  // no colour: the 35 degree tolerance
+  LinkageParams off = p;
+  off.color_concavity_tolerance_deg = 0.f;
+  for (int k = 0; k < 20; ++k) cloud.rgba.push_back(0xffc81e14u);
+  Linkage(off).Compute(g.sv, g.f, cues, &r);
+  EXPECT_EQ(g.Kept(r, 0, 1), 0);  // one colour, but the wider tolerance off
 }
 
 TEST(Linkage, IdenticalForAnyThreadCount) {
