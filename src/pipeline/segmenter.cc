@@ -146,8 +146,8 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   // each other. They run as the two chunks of one parallel loop: this thread labels the
   // planes (serial work: hypotheses, then alpha-expansion) while a pool worker computes the
   // linkage, whose own loops then run inline on that worker in the same chunks (the same
-  // result). Without a free worker this thread runs both, one after the other.
-  // The linkage's passes over the label image run first, on the whole pool.
+  // result). Without a free worker this thread runs both, one after the other. The linkage's
+  // mean chromaticities (a pass over the label image) are computed first, on the whole pool.
   const auto t_cues = Clock::now();
   m.linkage.PrepareCues(m.sv, cues);
   const double cues_ms = MsSince(t_cues);
