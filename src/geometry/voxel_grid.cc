@@ -279,11 +279,6 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       CollectBandPoints(begin / kBandPoints, begin, end);
     });
   }
-  for (size_t p = 0; p < num_partitions; ++p) {
-    Partition& part = partitions_[p];
-    part.x_begin = std::clamp(partition_cut_[p], box.x_min, box.x_max + 1);
-    part.x_end = std::clamp(partition_cut_[p + 1], part.x_begin, box.x_max + 1);
-  }
   if (box.valid == 0) {
     for (Partition& part : partitions_) part.size = 0;
     x_histogram_.clear();
@@ -294,6 +289,12 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
     grid->centroid.clear();
     grid->mean_color.clear();
     return;
+  }
+  // The ranges, within this frame's box (clamping needs a non-empty one).
+  for (size_t p = 0; p < num_partitions; ++p) {
+    Partition& part = partitions_[p];
+    part.x_begin = std::clamp(partition_cut_[p], box.x_min, box.x_max + 1);
+    part.x_end = std::clamp(partition_cut_[p + 1], part.x_begin, box.x_max + 1);
   }
 
   // 2. The cell table: one cell per column, x-major; where the box has more columns than

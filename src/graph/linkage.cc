@@ -260,9 +260,9 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   const bool prepared = prepared_for_ == &sv;
   prepared_for_ = nullptr;
   // With colour the tolerance may be wider: the colour cut below judges what it lets in.
-  LinkageParams test = params_;
+  LinkageParams convexity_params = params_;
   if (color && params_.color_concavity_tolerance_deg > 0.f) {
-    test.concavity_tolerance_deg = params_.color_concavity_tolerance_deg;
+    convexity_params.concavity_tolerance_deg = params_.color_concavity_tolerance_deg;
   }
   convex_raw_.resize(slots);
   edge_class_.resize(slots);
@@ -272,8 +272,8 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
         const uint32_t j = adj[s];
         if (j < i) continue;
         const ConnectionClass c =
-            ClassifyConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j], test,
-                               sanity_min_cos, crease_min_deg);
+            ClassifyConnection(f.centroid[i], f.normal[i], f.centroid[j], f.normal[j],
+                               convexity_params, sanity_min_cos, crease_min_deg);
         edge_class_[s] = edge_class_[reverse_slot_[s]] = c;
         convex_raw_[s] = convex_raw_[reverse_slot_[s]] = c <= kMildConcave ? 1 : 0;
       }
