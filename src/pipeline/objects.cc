@@ -10,12 +10,16 @@
 #include "clutterseg/core/scoped_timer.h"
 
 namespace clutterseg::pipeline {
+namespace {
+constexpr float kFloatMax = std::numeric_limits<float>::max();
+}  // namespace
+
 struct ObjectExtractor::Accumulator {
   uint64_t n{0};
-  Eigen::Vector3d sum{Eigen::Vector3d::Zero()};
-  Eigen::Matrix3d sum_sq{Eigen::Matrix3d::Zero()};
-  Eigen::Vector3f min{Eigen::Vector3f::Constant(std::numeric_limits<float>::max())};
-  Eigen::Vector3f max{Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest())};
+  double sum[3]{0.0, 0.0, 0.0};
+  double sum_sq[6]{0.0, 0.0, 0.0, 0.0, 0.0, 0.0};  // xx, xy, xz, yy, yz, zz
+  float min[3]{kFloatMax, kFloatMax, kFloatMax};
+  float max[3]{-kFloatMax, -kFloatMax, -kFloatMax};
   uint64_t r{0}, g{0}, b{0};
   int umin{std::numeric_limits<int>::max()}, vmin{std::numeric_limits<int>::max()};
   int umax{-1}, vmax{-1};
@@ -35,6 +39,75 @@ constexpr size_t kBandRows = 32;
 core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v.z()}; }
 
 }  // namespace
+
+// Adds the valid points of pixels [u0, u1) of row v (one object's run; `xyz` and `rgba`
+// point at the row's start, `rgba` null without colour) to `out`, point by point in pixel
+// order, with the sums in locals along the run.
+void ObjectExtractor::AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba, int u0, int u1,
+                                    int v, Accumulator* out) {
+  Accumulator& a = *out;
+  uint64_t n = a.n;
+  double sx = a.sum[0], sy = a.sum[1], sz = a.sum[2];
+  double sxx = a.sum_sq[0], sxy = a.sum_sq[1], sxz = a.sum_sq[2];
+  double syy = a.sum_sq[3], syz = a.sum_sq[4], szz = a.sum_sq[5];
+  float x0 = a.min[0], y0 = a.min[1], z0 = a.min[2];
+  float x1 = a.max[0], y1 = a.max[1], z1 = a.max[2];
+  uint64_t r = a.r, g = a.g, b = a.b;
+  int first = -1, last = -1;
+  for (int u = u0; u < u1; ++u) {
+    const core::Vec3f& p = xyz[u];
+    if (!core::IsValid(p)) continue;
+    if (first < 0) first = u;
+    last = u;
+    const double x = p.x, y = p.y, z = p.z;
+    ++n;
+    sx += x;
+    sy += y;
+    sz += z;
+    sxx += x * x;
+    sxy += x * y;
+    sxz += x * z;
+    syy += y * y;
+    syz += y * z;
+    szz += z * z;
+    x0 = std::min(x0, p.x);
+    y0 = std::min(y0, p.y);
+    z0 = std::min(z0, p.z);
+    x1 = std::max(x1, p.x);
+    y1 = std::max(y1, p.y);
+    z1 = std::max(z1, p.z);
+    if (rgba != nullptr) {
+      const core::Rgb8 c = core::UnpackRgba(rgba[u]);
+      r += c.r;
+      g += c.g;
+      b += c.b;
+    }
+  }
+  if (first < 0) return;
+  a.n = n;
+  a.sum[0] = sx;
+  a.sum[1] = sy;
+  a.sum[2] = sz;
+  a.sum_sq[0] = sxx;
+  a.sum_sq[1] = sxy;
+  a.sum_sq[2] = sxz;
+  a.sum_sq[3] = syy;
+  a.sum_sq[4] = syz;
+  a.sum_sq[5] = szz;
+  a.min[0] = x0;
+  a.min[1] = y0;
+  a.min[2] = z0;
+  a.max[0] = x1;
+  a.max[1] = y1;
+  a.max[2] = z1;
+  a.r = r;
+  a.g = g;
+  a.b = b;
+  a.umin = std::min(a.umin, first);
+  a.umax = std::max(a.umax, last);
+  a.vmin = std::min(a.vmin, v);
+  a.vmax = std::max(a.vmax, v);
+}
 
 ObjectExtractor::ObjectExtractor(core::ThreadPool* pool) : pool_(pool) {}
 ObjectExtractor::~ObjectExtractor() = default;
@@ -56,39 +129,26 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
   const size_t num_bands = core::ThreadPool::NumChunks(rows, kBandRows);
   band_acc_.assign(num_bands * num_objects, Accumulator{});
   core::ForChunks(pool, rows, kBandRows, [&](size_t row_begin, size_t row_end) {
-    // Locals: the accumulators' stores would otherwise force reloads of what the lambda
-    // captures by reference.
     Accumulator* acc = &band_acc_[(row_begin / kBandRows) * num_objects];
     const int width = w;
     const uint32_t count = num_objects;
     const uint32_t* label = labels.data.data();
     const core::Vec3f* xyz = cloud.xyz.data();
+    const uint32_t* rgba = color ? cloud.rgba.data() : nullptr;
     for (size_t v = row_begin; v < row_end; ++v) {
       const size_t row = v * static_cast<size_t>(width);
-      for (int u = 0; u < width; ++u) {
-        const size_t i = row + static_cast<size_t>(u);
-        const uint32_t l = label[i];
-        if (l - 1 >= count) continue;  // 0 (no object) wraps around
-        const core::Vec3f& p = xyz[i];
-        if (!core::IsValid(p)) continue;
-        Accumulator& a = acc[l - 1];
-        const Eigen::Vector3d q(p.x, p.y, p.z);
-        a.n++;
-        a.sum += q;
-        a.sum_sq.noalias() += q * q.transpose();
-        const Eigen::Vector3f pf(p.x, p.y, p.z);
-        a.min = a.min.cwiseMin(pf);
-        a.max = a.max.cwiseMax(pf);
-        if (color) {
-          const core::Rgb8 c = core::UnpackRgba(cloud.rgba[i]);
-          a.r += c.r;
-          a.g += c.g;
-          a.b += c.b;
+      // Runs of one label: an object's accumulator stays in registers along its run (a store
+      // per point would chain every point's sums through memory). The points are still added
+      // one by one in pixel order.
+      for (int u = 0; u < width;) {
+        const uint32_t l = label[row + static_cast<size_t>(u)];
+        int run_end = u + 1;
+        while (run_end < width && label[row + static_cast<size_t>(run_end)] == l) ++run_end;
+        if (l - 1 < count) {  // 0 (no object) wraps around
+          AccumulateRun(xyz + row, rgba != nullptr ? rgba + row : nullptr, u, run_end,
+                        static_cast<int>(v), &acc[l - 1]);
         }
-        a.umin = std::min(a.umin, u);
-        a.umax = std::max(a.umax, u);
-        a.vmin = std::min(a.vmin, static_cast<int>(v));
-        a.vmax = std::max(a.vmax, static_cast<int>(v));
+        u = run_end;
       }
     }
   });
@@ -100,10 +160,12 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
       if (x.n == 0) continue;
       Accumulator& a = acc[k];
       a.n += x.n;
-      a.sum += x.sum;
-      a.sum_sq += x.sum_sq;
-      a.min = a.min.cwiseMin(x.min);
-      a.max = a.max.cwiseMax(x.max);
+      for (int j = 0; j < 3; ++j) a.sum[j] += x.sum[j];
+      for (int j = 0; j < 6; ++j) a.sum_sq[j] += x.sum_sq[j];
+      for (int j = 0; j < 3; ++j) {
+        a.min[j] = std::min(a.min[j], x.min[j]);
+        a.max[j] = std::max(a.max[j], x.max[j]);
+      }
       a.r += x.r;
       a.g += x.g;
       a.b += x.b;
@@ -119,8 +181,12 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
   for (uint32_t k = 0; k < num_objects; ++k) {
     const Accumulator& a = acc[k];
     if (a.n == 0) continue;
-    const Eigen::Vector3d c = a.sum / static_cast<double>(a.n);
-    Eigen::Matrix3d cov = a.sum_sq / static_cast<double>(a.n) - c * c.transpose();
+    const Eigen::Vector3d c =
+        Eigen::Vector3d(a.sum[0], a.sum[1], a.sum[2]) / static_cast<double>(a.n);
+    Eigen::Matrix3d sum_sq;
+    sum_sq << a.sum_sq[0], a.sum_sq[1], a.sum_sq[2], a.sum_sq[1], a.sum_sq[3], a.sum_sq[4],
+        a.sum_sq[2], a.sum_sq[4], a.sum_sq[5];
+    Eigen::Matrix3d cov = sum_sq / static_cast<double>(a.n) - c * c.transpose();
     Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es;
     es.computeDirect(cov);
     Eigen::Matrix3f ax;
@@ -142,16 +208,26 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
     const uint32_t* label = labels.data.data();
     const core::Vec3f* xyz = cloud.xyz.data();
     const size_t end = row_end * static_cast<size_t>(w);
-    for (size_t i = row_begin * static_cast<size_t>(w); i < end; ++i) {
+    for (size_t i = row_begin * static_cast<size_t>(w); i < end;) {
       const uint32_t l = label[i];
-      if (l - 1 >= count) continue;
-      const core::Vec3f& p = xyz[i];
-      if (!core::IsValid(p)) continue;
-      const Frame& f = frames_[l - 1];
-      const Eigen::Vector3f q = f.axes.transpose() * (Eigen::Vector3f(p.x, p.y, p.z) - f.centroid);
-      Frame& box = local[l - 1];
-      box.lo = box.lo.cwiseMin(q);
-      box.hi = box.hi.cwiseMax(q);
+      size_t run_end = i + 1;
+      while (run_end < end && label[run_end] == l) ++run_end;
+      if (l - 1 < count) {
+        const Frame& f = frames_[l - 1];
+        const Eigen::Matrix3f axes_t = f.axes.transpose();
+        const Eigen::Vector3f centroid = f.centroid;
+        Eigen::Vector3f lo = local[l - 1].lo, hi = local[l - 1].hi;
+        for (size_t k = i; k < run_end; ++k) {
+          const core::Vec3f& p = xyz[k];
+          if (!core::IsValid(p)) continue;
+          const Eigen::Vector3f q = axes_t * (Eigen::Vector3f(p.x, p.y, p.z) - centroid);
+          lo = lo.cwiseMin(q);
+          hi = hi.cwiseMax(q);
+        }
+        local[l - 1].lo = lo;
+        local[l - 1].hi = hi;
+      }
+      i = run_end;
     }
   });
   for (size_t b = 0; b < num_bands; ++b) {
@@ -171,8 +247,8 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
     o.num_points = static_cast<uint32_t>(a.n);
     if (a.n == 0) continue;
     o.centroid = ToVec(f.centroid);
-    o.aabb_min = ToVec(a.min);
-    o.aabb_max = ToVec(a.max);
+    o.aabb_min = core::Vec3f{a.min[0], a.min[1], a.min[2]};
+    o.aabb_max = core::Vec3f{a.max[0], a.max[1], a.max[2]};
     o.obb_center = ToVec(f.centroid + f.axes * (0.5f * (f.lo + f.hi)));
     for (int j = 0; j < 3; ++j) o.obb_axes[j] = ToVec(f.axes.col(j));
     o.obb_extents = ToVec(f.hi - f.lo);
@@ -192,9 +268,8 @@ void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult*
       // Minimum signed distance over the AABB corners approximates the lowest point.
       float dmin = std::numeric_limits<float>::max();
       for (int c = 0; c < 8; ++c) {
-        const Eigen::Vector3f corner((c & 1) ? a.max.x() : a.min.x(),
-                                     (c & 2) ? a.max.y() : a.min.y(),
-                                     (c & 4) ? a.max.z() : a.min.z());
+        const Eigen::Vector3f corner((c & 1) ? a.max[0] : a.min[0], (c & 2) ? a.max[1] : a.min[1],
+                                     (c & 4) ? a.max[2] : a.min[2]);
         dmin = std::min(dmin, n.dot(corner) + pl.d);
       }
       const float dc = n.dot(f.centroid) + pl.d;

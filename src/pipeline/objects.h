@@ -35,6 +35,8 @@ class ObjectExtractor {
   core::ThreadPool* const pool_;
   struct Accumulator;
   struct Frame;
+  static void AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba, int u0, int u1, int v,
+                            Accumulator* out);
   std::vector<Accumulator> acc_;
   std::vector<Frame> frames_;
   std::vector<Accumulator> band_acc_;  // per band of rows, then per object
