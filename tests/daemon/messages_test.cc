@@ -212,6 +212,35 @@ TEST(LabelImage, EveryCompressionRoundTripsThroughLcm) {
   EXPECT_LT(zlib.data.size(), none.data.size() / 4);
 }
 
+TEST(LabelImage, RleRunsFollowTheClampedIds) {
+  // One row: 7 ones, four distinct ids that all clamp to 65535, 13 twos, one 3. The run
+  // scan compares four ids at a time, so the runs end at every offset modulo four.
+  std::vector<uint32_t> row(7, 1u);
+  for (uint32_t big : {70000u, 70001u, 65535u, 65536u}) row.push_back(big);
+  row.insert(row.end(), 13, 2u);
+  row.push_back(3u);
+  core::LabelImage labels;
+  labels.Reset(static_cast<int>(row.size()), 1, 0u);
+  labels.data = row;
+  clutterseg::label_image_t msg;
+  EncodeLabelImage(labels, FrameInfo{}, LabelCompression::kRle, &msg);
+  ASSERT_EQ(msg.data.size(), 4u * 6u);  // runs of 1, 65535, 2 and 3
+  const uint32_t expected_runs[4][2] = {{1, 7}, {65535, 4}, {2, 13}, {3, 1}};
+  for (size_t k = 0; k < 4; ++k) {
+    const uint8_t* p = msg.data.data() + 6 * k;
+    EXPECT_EQ(p[0] | (p[1] << 8), static_cast<int>(expected_runs[k][0])) << "run " << k;
+    EXPECT_EQ(p[2] | (p[3] << 8) | (p[4] << 16) | (p[5] << 24),
+              static_cast<int>(expected_runs[k][1]))
+        << "run " << k;
+  }
+  core::LabelImage decoded;
+  DecodeLabelImage(RoundTrip(msg), &decoded);
+  ASSERT_EQ(decoded.data.size(), row.size());
+  for (size_t i = 0; i < row.size(); ++i) {
+    EXPECT_EQ(decoded.data[i], std::min(row[i], 65535u)) << "pixel " << i;
+  }
+}
+
 TEST(LabelImage, MalformedMessagesAreRejected) {
   const core::LabelImage labels = SampleLabels(16, 8);
   FrameInfo info;

@@ -76,9 +76,24 @@ bool EncodeLabelImage(const Id* ids, int32_t width, int32_t height, int8_t compr
       data.clear();
       size_t i = 0;
       while (i < n) {
-        const uint16_t v = clamp(ids[i]);
+        const Id raw = ids[i];
+        const uint16_t v = clamp(raw);
+        const size_t limit = n - i > UINT32_MAX ? i + UINT32_MAX : n;
         size_t j = i + 1;
-        while (j < n && clamp(ids[j]) == v && j - i < UINT32_MAX) ++j;
+        for (;;) {
+          // Equal ids four at a time (one branch per four), then one at a time; an id that
+          // differs but clamps to the same value continues the run.
+          while (j + 4 <= limit && ((ids[j] ^ raw) | (ids[j + 1] ^ raw) | (ids[j + 2] ^ raw) |
+                                    (ids[j + 3] ^ raw)) == 0) {
+            j += 4;
+          }
+          while (j < limit && ids[j] == raw) ++j;
+          if (j < limit && clamp(ids[j]) == v) {
+            ++j;
+            continue;
+          }
+          break;
+        }
         const uint32_t run = static_cast<uint32_t>(j - i);
         const uint8_t pair[6] = {static_cast<uint8_t>(v & 0xff),   static_cast<uint8_t>(v >> 8),
                                  static_cast<uint8_t>(run & 0xff), static_cast<uint8_t>(run >> 8),
