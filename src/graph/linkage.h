@@ -78,9 +78,10 @@ class Linkage {
 
   /// Computes the mean chromaticities of the supervoxels (a pass over the label image, when
   /// the colour cut is on and the cloud has colour) for the next Compute with the same
-  /// `supervoxels` and `cues`, on the pool, so that a Compute that then runs on a pool worker,
-  /// its loops inline, does not have to. Optional: Compute computes them itself when they
-  /// were not prepared for its `supervoxels`. Call it on the thread of Compute, before it.
+  /// `supervoxels` and `cues`, on the pool, while the pool has no other work (the Segmenter
+  /// then runs Compute beside the plane labelling, which keeps a worker busy). Optional:
+  /// Compute computes them itself when they were not prepared for its `supervoxels`. Call it
+  /// on the thread of Compute, right before it.
   void PrepareCues(const supervoxel::Supervoxels& supervoxels, const LinkageCues& cues);
 
   const LinkageParams& params() const { return params_; }
