@@ -101,6 +101,11 @@ ThreadPool::~ThreadPool() {
 
 bool ThreadPool::InWorker() const { return t_current_pool == this; }
 
+void ThreadPool::Rest() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (count_ == 0) resting_.store(true, std::memory_order_relaxed);
+}
+
 void ThreadPool::PushLocked(Task task) {
   if (count_ == ring_.size()) {
     std::vector<Task> bigger(2 * ring_.size());
@@ -110,6 +115,7 @@ void ThreadPool::PushLocked(Task task) {
   }
   ring_[(head_ + count_) % ring_.size()] = std::move(task);
   ++count_;
+  resting_.store(false, std::memory_order_relaxed);
   queued_.store(count_, std::memory_order_release);
 }
 
@@ -170,10 +176,11 @@ void ThreadPool::WorkerLoop(size_t index) {
     if (count_ == 0 && !stopping_) {
       lock.unlock();
       // No spinning while callers run inline (ActiveCaller): no helper task can come, and
-      // the cores are theirs.
+      // the cores are theirs; nor after Rest().
       SpinUntil([this] {
         return queued_.load(std::memory_order_acquire) > 0 ||
                stopping_.load(std::memory_order_acquire) ||
+               resting_.load(std::memory_order_relaxed) ||
                active_callers_.load(std::memory_order_relaxed) > 1;
       });
       lock.lock();

@@ -2,6 +2,7 @@
 
 #include <pthread.h>
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
@@ -102,6 +103,12 @@ struct FrameRunner::Impl {
       lock.lock();
       lane.working = false;
       lane.finished = true;
+      // A camera's next frame is most of a period away once no lane segments: the pool's
+      // workers stop spinning, so that the threads this item wakes next (the sinks) get a core.
+      if (params.policy == DispatchPolicy::kLatencyFirst && pool &&
+          std::none_of(lanes.begin(), lanes.end(), [](const LaneState& l) { return l.working; })) {
+        pool->Rest();
+      }
       finished_inputs.push_back(item);
       CompleteInOrder(&lock);
       cv.notify_all();

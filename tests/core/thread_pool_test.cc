@@ -207,6 +207,31 @@ TEST(ThreadPool, IdleWorkersStopSpinningAndBlock) {
   EXPECT_EQ(out.back(), static_cast<double>(out.size() - 1));
 }
 
+// Rest(): the idle workers block at once instead of spinning out kSpinMicroseconds after the
+// call (20 rounds of spinning would use about 40 ms of CPU), and the next call wakes them and
+// still covers every chunk once.
+TEST(ThreadPool, RestBlocksIdleWorkersAtOnceAndTheNextCallWakesThem) {
+  ThreadPool dut(2);
+  const auto spin = std::chrono::microseconds(ThreadPool::kSpinMicroseconds);
+  std::vector<int> hits(64, 0);
+  double idle_cpu_ms = 0.0;
+  for (int round = 0; round < 20; ++round) {
+    std::atomic<int> worker_chunks{0};
+    dut.ParallelFor(hits.size(), 4, [&](size_t b, size_t e) {
+      if (dut.InWorker()) worker_chunks.fetch_add(1);
+      std::this_thread::sleep_for(std::chrono::microseconds(200));  // the worker wakes meanwhile
+      for (size_t i = b; i < e; ++i) ++hits[i];
+    });
+    ASSERT_GT(worker_chunks.load(), 0) << "round " << round << ": the worker took no chunk";
+    dut.Rest();
+    const double cpu0 = ProcessCpuMs();
+    std::this_thread::sleep_for(2 * spin);
+    idle_cpu_ms += ProcessCpuMs() - cpu0;
+  }
+  EXPECT_LT(idle_cpu_ms, 10.0);
+  EXPECT_TRUE(std::all_of(hits.begin(), hits.end(), [](int h) { return h == 20; }));
+}
+
 // A worker woken from its block is kept off its caller's CPU only until it runs: inside its
 // chunk its affinity is the process's again, and it ran on another CPU than its caller (the
 // caller waits in its own chunk until the worker's has run, so both ran at once). A pool made
