@@ -25,7 +25,8 @@ constexpr size_t kBandPoints = 16384;
 constexpr size_t kVoxelGrain = 2048;
 constexpr uint64_t kMaxCells = uint64_t{1} << 20;  // cells of the column table, at most
 constexpr uint32_t kNoVoxel = ~uint32_t{0};
-constexpr size_t kMaxPartitions = 64;  // ranges of x, at most (one per thread)
+constexpr size_t kMaxPartitions = 64;      // ranges of x, at most (one per thread)
+constexpr uint64_t kMaxWindowBins = 1024;  // bins of the points per x that cut the ranges
 
 // Packed key: x, y, z (offset to be non-negative) in 21-bit fields, x most significant.
 inline uint64_t PackKey(int32_t x, int32_t y, int32_t z) {
@@ -226,8 +227,9 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   grid->curvature.clear();
 
   // 1. Keys of all points (invalid points get no voxel here); per band the number of valid
-  // keys, the box of their (x, y) and, when the ranges of x are already cut, the band's points
-  // of each range in point order.
+  // keys, the box of their (x, y) and, with more than one range of x, the band's points per x
+  // over the window of x the previous frame gave (the band's points of the single range
+  // otherwise, in point order).
   pixel_key_.resize(n);
   grid->point_voxel.resize(n);
   const bool camera = params_.use_single_camera_transform;
@@ -235,7 +237,14 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   const size_t num_bands = core::ThreadPool::NumChunks(n, kBandPoints);
   const size_t num_partitions = std::min(
       kMaxPartitions, static_cast<size_t>(pool != nullptr ? std::max(1, pool->num_threads()) : 1));
-  const bool cut = CutFromHistory(num_partitions);
+  partitions_.resize(num_partitions);
+  // Range p takes the x in [cut[p], cut[p + 1]): the first from 0, the last to the end.
+  partition_cut_.assign(num_partitions + 1, 0);
+  partition_cut_.back() = kFieldMask + 1;
+  const bool count_x = num_partitions > 1 && window_bins_ > 0;
+  const uint64_t window_min = window_min_, window_bins = window_bins_;
+  const int window_shift = window_shift_;
+  band_histogram_.resize(count_x ? num_bands * window_bins : 0);
   band_range_.resize(num_bands);
   band_points_.resize(n);
   band_offset_.resize(num_bands * (num_partitions + 1));
@@ -245,6 +254,8 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
     int32_t* point_voxel = grid->point_voxel.data();
     QuantizePoints(cloud.xyz.data() + begin, end - begin, camera, inv_res, keys + begin);
     BandRange range{0, kFieldMask, 0, kFieldMask, 0};
+    uint32_t* const hist = count_x ? &band_histogram_[band * window_bins] : nullptr;
+    if (count_x) std::fill_n(hist, window_bins, 0u);
     for (size_t i = begin; i < end; ++i) {
       const uint64_t key = keys[i];
       if (key == kInvalidKey) {
@@ -257,9 +268,13 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       range.x_max = std::max(range.x_max, x);
       range.y_min = std::min(range.y_min, y);
       range.y_max = std::max(range.y_max, y);
+      if (count_x) {  // x outside the window counts in its first or last bin
+        const uint64_t bin = x < window_min ? 0 : (x - window_min) >> window_shift;
+        ++hist[std::min(bin, window_bins - 1)];
+      }
     }
     band_range_[band] = range;
-    if (cut) CollectBandPoints(band, begin, end);
+    if (num_partitions == 1) CollectBandPoints(band, begin, end);
   });
   BandRange box{0, kFieldMask, 0, kFieldMask, 0};
   for (const BandRange& range : band_range_) {
@@ -270,18 +285,32 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
     box.y_min = std::min(box.y_min, range.y_min);
     box.y_max = std::max(box.y_max, range.y_max);
   }
-  if (!cut && box.valid > 0) {
-    // No earlier frame: even cuts of this frame's range of x.
-    for (size_t p = 1; p < num_partitions; ++p) {
-      partition_cut_[p] = box.x_min + (box.x_max + 1 - box.x_min) * p / num_partitions;
+  if (num_partitions > 1 && box.valid > 0) {
+    // Cut where this frame's points split evenly (even cuts of its range of x on a first
+    // frame). Any cuts give the same grid: they only balance the work.
+    if (count_x) {
+      CutAtCounts(num_bands, box.valid);
+    } else {
+      for (size_t p = 1; p < num_partitions; ++p) {
+        partition_cut_[p] = box.x_min + (box.x_max + 1 - box.x_min) * p / num_partitions;
+      }
     }
     ForChunks(pool, n, kBandPoints, [&](size_t begin, size_t end) {
       CollectBandPoints(begin / kBandPoints, begin, end);
     });
   }
+  // The next frame counts its points per x over this frame's range of x, a quarter wider on
+  // each side, in at most kMaxWindowBins bins.
+  if (box.valid > 0) {
+    const uint64_t span = box.x_max - box.x_min + 1, margin = span / 4 + 1;
+    window_min_ = box.x_min > margin ? box.x_min - margin : 0;
+    const uint64_t width = span + 2 * margin;
+    window_shift_ = 0;
+    while ((width >> window_shift_) >= kMaxWindowBins) ++window_shift_;
+    window_bins_ = (width >> window_shift_) + 1;
+  }
   if (box.valid == 0) {
     for (Partition& part : partitions_) part.size = 0;
-    x_histogram_.clear();
     grid->key.clear();
     grid->coord.clear();
     grid->num_points.clear();
@@ -306,8 +335,6 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   while (nx * (((ny - 1) >> y_shift) + 1) > kMaxCells && (ny >> y_shift) > 1) ++y_shift;
   const uint64_t ny_cells = ((ny - 1) >> y_shift) + 1;
   cell_head_.assign(nx * ny_cells, kNoVoxel);
-  x_histogram_.assign(nx, 0);
-  x_histogram_min_ = x0;
   auto cell_of = [&](uint64_t key) {
     return ((key >> (2 * kFieldBits)) - x0) * ny_cells +
            ((((key >> kFieldBits) & kFieldMask) - y0) >> y_shift);
@@ -315,7 +342,7 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
 
   // 3. Each range of x: its voxels in first-occurrence order, linked into their cells in key
   // order; the cells in order then rank them by key. point_voxel holds the range's voxel for
-  // now, and the points per x are counted for the next frame's ranges.
+  // now.
   ForChunks(pool, num_partitions, 1, [&](size_t pb, size_t pe) {
     for (size_t p = pb; p < pe; ++p) {
       Partition& part = partitions_[p];
@@ -323,13 +350,11 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
       const uint64_t* keys = pixel_key_.data();
       int32_t* point_voxel = grid->point_voxel.data();
       uint32_t* head = cell_head_.data();
-      uint32_t* hist = x_histogram_.data();
       for (size_t b = 0; b < num_bands; ++b) {
         const size_t* const offset = &band_offset_[b * (num_partitions + 1)];
         for (size_t j = offset[p]; j < offset[p + 1]; ++j) {
           const size_t i = band_points_[j];
           const uint64_t key = keys[i];
-          ++hist[(key >> (2 * kFieldBits)) - x0];
           // Equal keys lie in the same range, so the left and upper pixels' voxels are this
           // range's when their keys match.
           if (i > 0 && keys[i - 1] == key && (!organized || i % w != 0)) {
@@ -435,25 +460,16 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   });
 }
 
-bool Voxelizer::CutFromHistory(size_t num_partitions) {
-  partitions_.resize(num_partitions);
-  // Range p takes the x in [cut[p], cut[p + 1]): the first from 0, the last to the end.
-  partition_cut_.assign(num_partitions + 1, 0);
-  partition_cut_.back() = kFieldMask + 1;
-  if (num_partitions == 1) return true;
-  // Cut where the previous frame's points split evenly (consecutive frames of a stream look
-  // alike). Any cuts give the same grid: they only balance the work.
-  size_t total = 0;
-  for (const uint32_t c : x_histogram_) total += c;
-  if (total == 0) return false;
+void Voxelizer::CutAtCounts(size_t num_bands, size_t total) {
+  const size_t num_partitions = partitions_.size();
+  const uint64_t bins = window_bins_;
   size_t p = 1, running = 0;
-  for (size_t b = 0; b < x_histogram_.size() && p < num_partitions; ++b) {
-    running += x_histogram_[b];
+  for (uint64_t b = 0; b < bins && p < num_partitions; ++b) {
+    for (size_t band = 0; band < num_bands; ++band) running += band_histogram_[band * bins + b];
     while (p < num_partitions && running * num_partitions >= total * p) {
-      partition_cut_[p++] = x_histogram_min_ + b + 1;
+      partition_cut_[p++] = window_min_ + ((b + 1) << window_shift_);
     }
   }
-  return true;
 }
 
 void Voxelizer::CollectBandPoints(size_t band, size_t begin, size_t end) {

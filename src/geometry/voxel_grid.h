@@ -111,10 +111,10 @@ class Voxelizer {
   /// voxel columns (x, y) over the points' bounding box, each holding its voxels sorted by z,
   /// so the grid comes out in key order without a sort or a hash map. The points are split
   /// into ranges of x, one per thread of the pool, each range building its part of the grid
-  /// on its own (cut where the previous frame's points split evenly: the grid does not depend
-  /// on the cuts); a voxel's sums are added in point order whatever the number of ranges. For
-  /// organized clouds a point reuses the voxel of its left or upper pixel when their keys match, so
-  /// only about one point in six searches the table.
+  /// on its own (cut where the frame's points split evenly, counted per x while they are
+  /// quantised: the grid does not depend on the cuts); a voxel's sums are added in point order
+  /// whatever the number of ranges. For organized clouds a point reuses the voxel of its left or
+  /// upper pixel when their keys match, so only about one point in six searches the table.
   void Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGrid* grid);
   /// Fills the 26-neighbourhood CSR of a voxelized grid by a linear sweep over the voxel
   /// columns (no lookups). O(V).
@@ -152,9 +152,8 @@ class Voxelizer {
     uint64_t y_min{0}, y_max{0};
   };
 
-  // Cuts the ranges of x from the previous frame's points per x; false when there is none
-  // (and more than one range).
-  bool CutFromHistory(size_t num_partitions);
+  // Cuts the ranges of x where `total` points, counted per x in band_histogram_, split evenly.
+  void CutAtCounts(size_t num_bands, size_t total);
   // The valid points of [begin, end) by range of x, into band_points_ of `band`.
   void CollectBandPoints(size_t band, size_t begin, size_t end);
 
@@ -162,10 +161,13 @@ class Voxelizer {
   core::ThreadPool* const pool_;
   std::vector<uint64_t> pixel_key_;
   std::vector<BandRange> band_range_;
-  // Points per x of the last frame, from x_histogram_min_ on: where the next frame's ranges
-  // are cut.
-  std::vector<uint32_t> x_histogram_;
-  uint64_t x_histogram_min_{0};
+  // Per band, its points per x over the window of x the last frame set: bin k counts the x in
+  // [window_min_ + k 2^window_shift_, + 2^window_shift_), the first and last bins also those
+  // outside. No window (0 bins) before the first frame with points.
+  std::vector<uint32_t> band_histogram_;
+  uint64_t window_min_{0};
+  uint64_t window_bins_{0};
+  int window_shift_{0};
   std::vector<uint64_t> partition_cut_;  // range p is [cut[p], cut[p + 1]) in x
   // The valid points of each band, range by range, each in point order; band b's range p is
   // band_points_[band_offset_[b * (ranges + 1) + p] .. band_offset_[b * (ranges + 1) + p + 1]).

@@ -393,7 +393,7 @@ TEST(VoxelGrid, EqualsABruteForceGridForAnyPoolOnNarrowAndVeryWideClouds) {
       VoxelGrid grid;
       dut.Voxelize(*cloud, false, &grid);  // the first frame: even ranges of x
       ExpectBruteForceGrid(*cloud, dut, grid);
-      dut.Voxelize(RandomCloud(2, 500), false, &grid);  // ranges cut for another frame
+      dut.Voxelize(RandomCloud(2, 500), false, &grid);  // x counted in another frame's window
       dut.Voxelize(*cloud, false, &grid);
       ExpectBruteForceGrid(*cloud, dut, grid);
     }
