@@ -227,9 +227,9 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
   grid->curvature.clear();
 
   // 1. Keys of all points (invalid points get no voxel here); per band the number of valid
-  // keys, the box of their (x, y) and, with more than one range of x, the band's points per x
-  // over the window of x the previous frame gave (the band's points of the single range
-  // otherwise, in point order).
+  // keys, the box of their (x, y), and with more than one range of x the band's points per x
+  // (over the window of x the previous frame set), with a single range the band's points in
+  // point order.
   pixel_key_.resize(n);
   grid->point_voxel.resize(n);
   const bool camera = params_.use_single_camera_transform;
