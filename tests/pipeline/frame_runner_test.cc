@@ -115,9 +115,17 @@ TEST(FrameRunner, LatencyFirstRestsThePoolBeforeDone) {
   double done_cpu_ms = 0.0;
   core::ThreadPool* pool = nullptr;
   auto work = [&](const FrameRunner::Lane&, uint64_t) {
-    pool->ParallelFor(16, 1, [&](size_t, size_t) {
-      if (pool->InWorker()) worker_chunks.fetch_add(1);
-      std::this_thread::sleep_for(std::chrono::microseconds(200));  // the worker wakes meanwhile
+    // The caller's chunk waits for the worker's, so the worker runs (and would spin after).
+    std::atomic<bool> worker_ran{false};
+    pool->ParallelFor(2, 1, [&](size_t b, size_t) {
+      if (b == 1) {
+        if (pool->InWorker()) worker_chunks.fetch_add(1);
+        worker_ran.store(true);
+        return;
+      }
+      const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+      while (!worker_ran.load() && std::chrono::steady_clock::now() < deadline) {
+      }
     });
   };
   auto done = [&](const FrameRunner::Lane&, uint64_t, const std::string* error) {
@@ -133,7 +141,7 @@ TEST(FrameRunner, LatencyFirstRestsThePoolBeforeDone) {
     ASSERT_TRUE(dut.Submit(i, nullptr));
     dut.Drain();
   }
-  EXPECT_GT(worker_chunks.load(), 0) << "the worker never took a chunk";
+  EXPECT_EQ(worker_chunks.load(), 20) << "the worker took the second chunk of every item";
   EXPECT_LT(done_cpu_ms, 10.0);
 }
 
