@@ -13,7 +13,8 @@ namespace clutterseg::geometry {
 namespace {
 
 constexpr double kDegToRad = 3.14159265358979323846 / 180.0;
-constexpr size_t kRowGrain = 32;  // rows per band of the pixel passes
+constexpr size_t kRowGrain = 32;    // rows per band of the pixel passes
+constexpr size_t kCellGrain = 256;  // cells per chunk of the cell fits
 
 // Shifts a row of `words` 64-bit words (bit u % 64 of word u / 64 is pixel u) by s < 64
 // pixels towards higher u (up = true) or lower u, ORing the result into `out`.
@@ -45,34 +46,42 @@ inline void ForRangeWords(size_t begin, size_t end, const Fn& fn) {
 }
 
 // Box dilation of a bit image (h rows of (w + 63) / 64 words): a bit of `out` is set when a
-// bit of `in` lies within m pixels in x and in y. `rows` and `line` are scratch.
-void DilateBits(size_t w, size_t h, size_t m, const std::vector<uint64_t>& in,
-                std::vector<uint64_t>* rows, std::vector<uint64_t>* line_buffer,
-                std::vector<uint64_t>* out) {
+// bit of `in` lies within m pixels in x and in y; bands of rows on `pool` (the same bits
+// for any pool). `rows` and `lines` (a row per band) are scratch.
+void DilateBits(core::ThreadPool* pool, size_t w, size_t h, size_t m,
+                const std::vector<uint64_t>& in, std::vector<uint64_t>* rows,
+                std::vector<uint64_t>* lines, std::vector<uint64_t>* out) {
   const size_t words = (w + 63) / 64;
-  *rows = in;
-  std::vector<uint64_t>& line = *line_buffer;
-  line.resize(words);
-  for (size_t v = 0; v < h; ++v) {
-    uint64_t* const row = rows->data() + v * words;
-    // Radius r grown by s <= r + 1 each step: the shifted copies leave no gap.
-    for (size_t r = 0; r < m;) {
-      const size_t s = std::min({r + 1, m - r, size_t{63}});
-      std::copy(row, row + words, line.begin());
-      OrShifted(line.data(), words, s, true, row);
-      OrShifted(line.data(), words, s, false, row);
-      r += s;
+  rows->resize(words * h);
+  lines->resize(words * core::ThreadPool::NumChunks(h, kRowGrain));
+  core::ForChunks(pool, h, kRowGrain, [&](size_t v0, size_t v1) {
+    uint64_t* const line = lines->data() + (v0 / kRowGrain) * words;
+    for (size_t v = v0; v < v1; ++v) {
+      const uint64_t* const src = in.data() + v * words;
+      uint64_t* const row = rows->data() + v * words;
+      std::copy(src, src + words, row);
+      // Radius r grown by s <= r + 1 each step: the shifted copies leave no gap.
+      for (size_t r = 0; r < m;) {
+        const size_t s = std::min({r + 1, m - r, size_t{63}});
+        std::copy(row, row + words, line);
+        OrShifted(line, words, s, true, row);
+        OrShifted(line, words, s, false, row);
+        r += s;
+      }
     }
-  }
-  out->assign(words * h, 0);
-  for (size_t v = 0; v < h; ++v) {
-    uint64_t* const dst = out->data() + v * words;
-    const size_t first = v >= m ? v - m : 0, last = std::min(h - 1, v + m);
-    for (size_t q = first; q <= last; ++q) {
-      const uint64_t* const src = rows->data() + q * words;
-      for (size_t k = 0; k < words; ++k) dst[k] |= src[k];
+  });
+  out->resize(words * h);
+  core::ForChunks(pool, h, kRowGrain, [&](size_t v0, size_t v1) {
+    for (size_t v = v0; v < v1; ++v) {
+      uint64_t* const dst = out->data() + v * words;
+      std::fill(dst, dst + words, uint64_t{0});
+      const size_t first = v >= m ? v - m : 0, last = std::min(h - 1, v + m);
+      for (size_t q = first; q <= last; ++q) {
+        const uint64_t* const src = rows->data() + q * words;
+        for (size_t k = 0; k < words; ++k) dst[k] |= src[k];
+      }
     }
-  }
+  });
 }
 
 inline float Dot(const core::Vec3f& a, const core::Vec3f& b) {
@@ -253,18 +262,22 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   auto bound_at = [&](double z) {
     return std::max(double{params_.min_rms_m}, double{params_.max_rms_at_1m_m} * z * z);
   };
+  core::ForChunks(pool_, num_cells, kCellGrain, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const double* m = &moments_[i * kNumMoments];
+      Cell& cell = cells_[i];
+      if (m[0] < std::max(3.0, double{params_.min_valid_fraction} * pixels_[i])) continue;
+      ShapeSummary s;
+      SummarizeMoments(m, &s);
+      cell.centroid = s.centroid;
+      cell.normal = s.normal;
+      cell.rms_bound = static_cast<float>(bound_at(s.centroid.z));
+      cell.flatness = std::sqrt(std::max(0.f, s.eigenvalues.z)) / cell.rms_bound;
+      cell.planar = cell.flatness <= 1.f;
+    }
+  });
   for (size_t i = 0; i < num_cells; ++i) {
-    const double* m = &moments_[i * kNumMoments];
-    Cell& cell = cells_[i];
-    if (m[0] < std::max(3.0, double{params_.min_valid_fraction} * pixels_[i])) continue;
-    ShapeSummary s;
-    SummarizeMoments(m, &s);
-    cell.centroid = s.centroid;
-    cell.normal = s.normal;
-    cell.rms_bound = static_cast<float>(bound_at(s.centroid.z));
-    cell.flatness = std::sqrt(std::max(0.f, s.eigenvalues.z)) / cell.rms_bound;
-    cell.planar = cell.flatness <= 1.f;
-    if (cell.planar) order_.push_back(static_cast<uint32_t>(i));
+    if (cells_[i].planar) order_.push_back(static_cast<uint32_t>(i));
   }
   // Flattest cells seed first (ties by position): the table grows from its cleanest part.
   std::sort(order_.begin(), order_.end(), [&](uint32_t a, uint32_t b) {
@@ -535,8 +548,8 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   // island (8-connected object points and their ring) with fewer than ring_min_cluster_px
   // object points goes too (those points themselves stay in the cloud, and the supervoxels
   // drop them as tiny groups). Near an object, such points are part of its island.
-  DilateBits(w, h, static_cast<size_t>(params_.margin_px), object_bits_, &row_bits_, &line_bits_,
-             &ring_bits_);
+  DilateBits(pool_, w, h, static_cast<size_t>(params_.margin_px), object_bits_, &row_bits_,
+             &line_bits_, &ring_bits_);
   DropSmallIslands(w, h, static_cast<uint32_t>(params_.ring_min_cluster_px));
   const size_t num_bands = core::ThreadPool::NumChunks(h, kRowGrain);
   // Each band's counters on cache lines of their own (the bands run on different cores).

@@ -145,7 +145,7 @@ class PlanarRegionFinder {
   std::vector<uint64_t> object_bits_;   // per pixel row: bits of the object points
   std::vector<uint64_t> support_bits_;  // per pixel row: bits of the support points
   std::vector<uint64_t> row_bits_;      // object bits dilated along the rows
-  std::vector<uint64_t> line_bits_;     // one row of bits (scratch)
+  std::vector<uint64_t> line_bits_;     // one row of bits per band of rows (scratch)
   std::vector<uint64_t> ring_bits_;     // within margin_px of an object point
   struct Run {
     uint32_t begin, end;  // pixels [begin, end) of a row
