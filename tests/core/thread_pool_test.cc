@@ -2,7 +2,6 @@
 
 #include <pthread.h>
 #include <sched.h>
-#include <time.h>
 
 #include <algorithm>
 #include <atomic>
@@ -15,6 +14,8 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "tests/testing/process_cpu.h"
 
 // Counts every operator new of this test binary (malloc itself is left alone). Not under the
 // sanitizers, which replace the allocator themselves and check new/delete pairing.
@@ -182,12 +183,7 @@ TEST(ThreadPool, UnevenChunksRunOnceEachWhileThreadsTakeOverOthersParts) {
   }
 }
 
-// Process CPU time, ms.
-double ProcessCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
+using clutterseg::testing::ProcessCpuMs;
 
 TEST(ThreadPool, IdleWorkersStopSpinningAndBlock) {
   // After a call the workers spin for a moment (the next call of a frame comes soon), then

@@ -1,7 +1,5 @@
 #include "clutterseg/pipeline/frame_runner.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -15,6 +13,7 @@
 
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/scene.h"
+#include "tests/testing/process_cpu.h"
 
 namespace clutterseg::pipeline {
 namespace {
@@ -99,12 +98,7 @@ TEST(FrameRunner, LatencyFirstWaitsForTheBusyLaneUnlessItemsQueueBehind) {
   }
 }
 
-// Process CPU time, ms.
-double ProcessCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) * 1e3 + static_cast<double>(ts.tv_nsec) * 1e-6;
-}
+using clutterseg::testing::ProcessCpuMs;
 
 // A camera's runner rests the pool once no lane segments: while Done runs (the sinks are
 // woken then) the pool's idle worker holds no core. Spinning out its time after each of the
