@@ -197,7 +197,10 @@ class DaemonFault : public ::testing::Test {
 
 // ---- 1. bad recordings -------------------------------------------------------------------
 
-TEST_F(DaemonFault, UnfinalizedRealRecordingIsRefused) {
+// The real recording: the same fixture under a suite name that ctest labels `realdata`.
+using DaemonFaultRealData = DaemonFault;
+
+TEST_F(DaemonFaultRealData, UnfinalizedRealRecordingIsRefused) {
   CLUTTERSEG_REQUIRE_DATA("oni-unfinalized/test.oni");
   ExpectRefused((testing::DataDir() / "oni-unfinalized/test.oni").string(), "cannot be replayed");
 }
@@ -495,13 +498,12 @@ TEST_F(DaemonFault, SecondSignalDuringShutdownDoesNotCrash) {
 // A device that is lost and cannot be reopened: the daemon sits in a 30 s reconnect backoff;
 // a stop request (what SIGTERM does) ends it at once, with a last status_t in the log.
 TEST(DaemonFaultScripted, StopDuringReconnectBackoffIsPrompt) {
-  CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   testutil::Script script;
   script.period_us = 1000;
   script.total_frames = -1;
   script.disconnect_after = 3;
   script.failed_reopens = 1000000;
-  auto source = std::make_unique<testutil::ScriptedSource>(testutil::LoadMosdFrames(2), script);
+  auto source = std::make_unique<testutil::ScriptedSource>(testutil::TabletopFrames(2), script);
   DaemonConfig c;
   const std::string log = (testing::ScratchDir("daemon_fault_backoff") / "out.lcmlog").string();
   c.lcm.url = "file://" + log + "?mode=w";
@@ -579,14 +581,13 @@ class WatchedSource final : public core::FrameSource {
 };
 
 TEST(DaemonFaultScripted, SlowConsumerDropsOldestAndLatencyStaysBounded) {
-  CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   testutil::Script script;
   script.live = true;
   script.period_us = 2000;  // 500 Hz: far faster than segmentation
   script.total_frames = 300;
   std::vector<int64_t> published_at_capture;
   auto watched = std::make_unique<WatchedSource>(
-      std::make_unique<testutil::ScriptedSource>(testutil::LoadMosdFrames(4), script),
+      std::make_unique<testutil::ScriptedSource>(testutil::TabletopFrames(4), script),
       &published_at_capture);
   WatchedSource* watch = watched.get();
   DaemonConfig c;

@@ -36,9 +36,9 @@ class DaemonProcess : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     oni_path_ =
-        (testing::ScratchDir("daemon_process_oni_" + std::to_string(getpid())) / "mosd5.oni")
+        (testing::ScratchDir("daemon_process_oni_" + std::to_string(getpid())) / "tabletop5.oni")
             .string();
-    have_oni_ = testutil::WriteMosdOni(oni_path_, kFrames);
+    testutil::WriteTabletopOni(oni_path_, kFrames);
   }
   static void TearDownTestSuite() {
     std::error_code ec;
@@ -46,11 +46,9 @@ class DaemonProcess : public ::testing::Test {
   }
   static constexpr int kFrames = 5;
   static inline std::string oni_path_;
-  static inline bool have_oni_{false};
 };
 
 TEST_F(DaemonProcess, OniRecordingToFileLogOneObjectsPerFrame) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   const auto log = testing::ScratchDir("daemon_process_log") / "out.lcmlog";
   std::string err;
   const int rc = testutil::Run({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "max",
@@ -88,7 +86,6 @@ TEST_F(DaemonProcess, OniRecordingToFileLogOneObjectsPerFrame) {
 }
 
 TEST_F(DaemonProcess, SigtermFinishesInFlightFramesAndExitsZero) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   const auto log = testing::ScratchDir("daemon_process_sigterm") / "out.lcmlog";
   testutil::Child child =
       testutil::Spawn({CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "max", "--loop",
@@ -152,7 +149,6 @@ TEST(DaemonProcessConfig, MissingSourceExitsThree) {
 }
 
 TEST_F(DaemonProcess, UnroutableMulticastExitsFourWithTheFix) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   testutil::NetNamespace ns(/*route=*/false);  // lo down, no multicast route
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   std::string err;
@@ -164,7 +160,6 @@ TEST_F(DaemonProcess, UnroutableMulticastExitsFourWithTheFix) {
 }
 
 TEST_F(DaemonProcess, PublishesOverUdpmInAPrivateNamespace) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   testutil::NetNamespace ns(/*route=*/true);
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
@@ -194,7 +189,6 @@ TEST_F(DaemonProcess, PublishesOverUdpmInAPrivateNamespace) {
 // Python subscriber with our own transport (Debian has no python3-lcm) receives both and
 // decodes their label images.
 TEST_F(DaemonProcess, TwoCamerasOnOneUdpmBusReachAPythonSubscriber) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   testutil::NetNamespace ns(/*route=*/true);
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
@@ -227,7 +221,6 @@ TEST_F(DaemonProcess, TwoCamerasOnOneUdpmBusReachAPythonSubscriber) {
 // refused (exit 2) after listening one status period, naming the first; told to skip the
 // check it runs, and the first reports the clash.
 TEST_F(DaemonProcess, SameCameraTwiceOnOneUdpmBusIsRefused) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   testutil::NetNamespace ns(/*route=*/true);
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
@@ -289,7 +282,6 @@ class ScopedEnv {
 };
 
 TEST_F(DaemonProcess, TellsSystemdWhenReadyAndKeepsTheWatchdogAlive) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   // A notification socket as systemd offers one to a Type=notify unit.
   const auto dir = testing::ScratchDir("daemon_process_notify");
   const std::string path = (dir / "notify.sock").string();
@@ -339,7 +331,6 @@ TEST_F(DaemonProcess, TellsSystemdWhenReadyAndKeepsTheWatchdogAlive) {
 }
 
 TEST_F(DaemonProcess, LogLinesCarryJournalPrioritiesUnderJournald) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   const auto dir = testing::ScratchDir("daemon_process_journal");
   const std::string err_file = (dir / "stderr.txt").string();
   std::ofstream(err_file).close();
@@ -370,7 +361,6 @@ TEST_F(DaemonProcess, LogLinesCarryJournalPrioritiesUnderJournald) {
 }
 
 TEST_F(DaemonProcess, HonoursLcmDefaultUrlAndPrintsItsVersion) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   const auto log = testing::ScratchDir("daemon_process_default_url") / "env.lcmlog";
   std::string err;
   int rc = -1;

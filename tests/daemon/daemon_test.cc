@@ -96,8 +96,8 @@ class DaemonOni : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     oni_path_ =
-        (testing::ScratchDir("daemon_oni_" + std::to_string(getpid())) / "mosd6.oni").string();
-    have_oni_ = testutil::WriteMosdOni(oni_path_, kFrames);
+        (testing::ScratchDir("daemon_oni_" + std::to_string(getpid())) / "tabletop6.oni").string();
+    testutil::WriteTabletopOni(oni_path_, kFrames);
   }
   static void TearDownTestSuite() {
     std::error_code ec;
@@ -111,11 +111,9 @@ class DaemonOni : public ::testing::Test {
   }
   static constexpr int kFrames = 6;
   static inline std::string oni_path_;
-  static inline bool have_oni_{false};
 };
 
 TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   DaemonConfig c = MemqConfig();
   c.processing.pipeline_depth = 2;
   const RunResult run = RunDaemon(c, OniSource());
@@ -140,7 +138,7 @@ TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
     for (uint32_t l : labels.data) max_label = std::max(max_label, l);
     EXPECT_EQ(max_label, static_cast<uint32_t>(m.num_objects)) << "frame " << i;
   }
-  EXPECT_GT(total_objects, 0) << "real tabletop frames must give objects";
+  EXPECT_GT(total_objects, 0) << "tabletop frames must give objects";
   ASSERT_FALSE(run.got.status.empty());
   const auto& last = run.got.status.back();
   EXPECT_EQ(last.device_state, clutterseg::status_t::DEVICE_END_OF_STREAM);
@@ -155,8 +153,7 @@ TEST_F(DaemonOni, OneObjectsMessagePerFrameInOrderWithLabelsAndStatus) {
 // Uses in-memory frames: Debian's OpenNI2 crashes when a second thread of the same process
 // replays a recording after the first one has exited, so one process replays one ONI.
 TEST(DaemonScripted, OutputDoesNotDependOnThreadsOrPipelineDepth) {
-  auto frames = testutil::LoadMosdFrames(4);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(4);
   testutil::Script s;
   s.live = false;
   s.total_frames = 4;
@@ -188,8 +185,7 @@ TEST(DaemonScripted, OutputDoesNotDependOnThreadsOrPipelineDepth) {
 }
 
 TEST(DaemonScripted, LiveSourceDropsOldestAndAccountsForEveryFrame) {
-  auto frames = testutil::LoadMosdFrames(2);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(2);
   testutil::Script s;
   s.live = true;
   s.period_us = 1000;  // far faster than segmentation
@@ -214,8 +210,7 @@ TEST(DaemonScripted, LiveSourceDropsOldestAndAccountsForEveryFrame) {
 }
 
 TEST(DaemonScripted, DeviceLossReconnectsWithBackoff) {
-  auto frames = testutil::LoadMosdFrames(1);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(1);
   testutil::Script s;
   s.live = false;
   s.total_frames = 6;
@@ -240,8 +235,7 @@ TEST(DaemonScripted, DeviceLossReconnectsWithBackoff) {
 }
 
 TEST(DaemonScripted, SourceErrorEndsTheRunWithExitCodeOne) {
-  auto frames = testutil::LoadMosdFrames(1);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(1);
   testutil::Script s;
   s.live = false;
   s.total_frames = 10;
@@ -257,8 +251,7 @@ TEST(DaemonScripted, SourceErrorEndsTheRunWithExitCodeOne) {
 }
 
 TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
-  auto frames = testutil::LoadMosdFrames(1);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(1);
   testutil::Script s;
   s.live = false;
   s.total_frames = 5;
@@ -287,8 +280,7 @@ TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
 }
 
 TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
-  auto frames = testutil::LoadMosdFrames(1);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(1);
   testutil::Script s;
   s.live = true;
   s.period_us = 5000;
@@ -313,8 +305,7 @@ TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
 // signal handling there): the run ends at once, publishes no frame and still sends its last
 // status_t.
 TEST(DaemonScripted, StopBetweenOpenAndStartEndsAtOnceWithAStatus) {
-  auto frames = testutil::LoadMosdFrames(1);
-  if (frames.empty()) GTEST_SKIP() << "shared data 'mosd-learn' not found";
+  auto frames = testutil::TabletopFrames(1);
   testutil::Script s;
   s.live = true;
   s.period_us = 5000;

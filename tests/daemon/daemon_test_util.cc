@@ -4,6 +4,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
@@ -16,28 +17,41 @@
 
 #include "clutterseg/core/frame.h"
 #include "clutterseg/drivers/oni/oni_writer.h"
-#include "clutterseg/drivers/replay/pcd_directory_source.h"
-#include "tests/testing/test_data.h"
+#include "clutterseg/synth/renderer.h"
+#include "clutterseg/synth/scene.h"
+#include "clutterseg/synth/sensor_params.h"
 
 namespace clutterseg::daemon::testutil {
 
-bool WriteMosdOni(const std::string& path, int frames) {
-  if (!testing::HaveData("mosd-learn/learn0.pcd")) return false;
-  drivers::PcdDirectorySourceOptions po;
-  po.path = (testing::DataDir() / "mosd-learn").string();
-  drivers::PcdDirectorySource pcd(po);
-  pcd.Open();
+std::vector<core::RgbdFrame> TabletopFrames(int n) {
+  synth::SceneParams scene;
+  scene.min_objects = 4;
+  scene.max_objects = 8;
+  const synth::SensorParams sensor;
+  std::vector<core::RgbdFrame> frames(static_cast<size_t>(std::max(n, 0)));
+  synth::RenderedFrame rendered;
+  for (int i = 0; i < n; ++i) {
+    const uint64_t seed = static_cast<uint64_t>(i) + 1;
+    synth::RenderScene(synth::GenerateScene(scene, seed), scene.intrinsics, sensor, seed,
+                       &rendered);
+    core::RgbdFrame& f = frames[static_cast<size_t>(i)];
+    f.intrinsics = rendered.intrinsics;
+    f.depth = rendered.depth;
+    f.color = rendered.color;
+    core::StampReplayFrame(static_cast<uint64_t>(i), 33333, "camera", &f);
+  }
+  return frames;
+}
+
+void WriteTabletopOni(const std::string& path, int frames) {
+  const std::vector<core::RgbdFrame> images = TabletopFrames(frames);
   drivers::OniWriter writer;
-  core::RgbdFrame frame;
-  for (int i = 0; i < frames; ++i) {
-    if (pcd.Read(1000, &frame) != core::ReadStatus::kOk) return false;
-    if (i == 0) {
-      writer.Open(path, frame.depth.width, frame.depth.height, 30, frame.intrinsics, true);
-    }
-    writer.WriteFrame(frame.depth, &frame.color, static_cast<int64_t>(i) * 33333);
+  for (size_t i = 0; i < images.size(); ++i) {
+    const core::RgbdFrame& f = images[i];
+    if (i == 0) writer.Open(path, f.depth.width, f.depth.height, 30, f.intrinsics, true);
+    writer.WriteFrame(f.depth, &f.color, static_cast<int64_t>(i) * 33333);
   }
   writer.Close();
-  return true;
 }
 
 Child Spawn(const std::vector<std::string>& argv) {

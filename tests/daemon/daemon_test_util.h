@@ -1,6 +1,6 @@
 #pragma once
 
-// Helpers shared by the daemon tests: real recordings, child processes, LCM logs and
+// Helpers shared by the daemon tests: generated tabletop recordings, child processes, LCM logs and
 // private network namespaces.
 
 #include <signal.h>
@@ -12,13 +12,21 @@
 
 #include <sys/types.h>
 
+#include "clutterseg/core/frame.h"
 #include "clutterseg/daemon/lcm_log_file.h"
 
 namespace clutterseg::daemon::testutil {
 
-/// Writes an ONI recording of `frames` real Kinect frames (mOSD learn0, learn1, ...; depth +
-/// colour, 30 fps timestamps) with drivers::OniWriter. Returns false when the data is absent.
-bool WriteMosdOni(const std::string& path, int frames);
+/// Renders `n` cluttered tabletop frames with the project's own generator (src/synth): one
+/// scene per frame (seeds 1..n, 4-8 objects touching, stacked and occluding on a table, with
+/// floor and sometimes a wall), 640x480 Kinect intrinsics, depth in millimetres through the
+/// structured-light sensor model and registered colour. Needs no downloaded data; the same
+/// frames in every run.
+std::vector<core::RgbdFrame> TabletopFrames(int n);
+
+/// Writes TabletopFrames(frames) as an ONI recording (depth + colour, 30 fps timestamps) with
+/// drivers::OniWriter. @throws std::runtime_error when the file cannot be written.
+void WriteTabletopOni(const std::string& path, int frames);
 
 /// A child process with its stderr captured.
 struct Child {

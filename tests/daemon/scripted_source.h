@@ -1,8 +1,8 @@
 #pragma once
 
-// A FrameSource over real frames held in memory, with scripted device behaviour (live
-// pacing, device loss, failing reopen, errors, a gate) that no file or camera here can
-// produce on demand.
+// A FrameSource over frames held in memory (testutil::TabletopFrames), with scripted device
+// behaviour (live pacing, device loss, failing reopen, errors, a gate) that no file or camera here
+// can produce on demand.
 
 #include <atomic>
 #include <chrono>
@@ -14,8 +14,6 @@
 #include <vector>
 
 #include "clutterseg/core/frame_source.h"
-#include "clutterseg/drivers/replay/pcd_directory_source.h"
-#include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon::testutil {
 
@@ -29,22 +27,6 @@ struct Script {
   int gate_after{-1};                ///< Read blocks after this many frames until OpenGate()
   std::atomic<int>* opens{nullptr};  ///< counts Open() calls when set (outlives the source)
 };
-
-/// Loads the first `n` mOSD frames (empty when the data is absent).
-inline std::vector<core::RgbdFrame> LoadMosdFrames(int n) {
-  std::vector<core::RgbdFrame> frames;
-  if (!testing::HaveData("mosd-learn/learn0.pcd")) return frames;
-  drivers::PcdDirectorySourceOptions o;
-  o.path = (testing::DataDir() / "mosd-learn").string();
-  drivers::PcdDirectorySource pcd(o);
-  pcd.Open();
-  for (int i = 0; i < n; ++i) {
-    core::RgbdFrame f;
-    if (pcd.Read(1000, &f) != core::ReadStatus::kOk) break;
-    frames.push_back(std::move(f));
-  }
-  return frames;
-}
 
 class ScriptedSource final : public core::FrameSource {
  public:

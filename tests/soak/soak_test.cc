@@ -1,12 +1,12 @@
 // Soak test of the `clutterseg` executable (ctest label `soak`, not in the default suite):
-// replays a real .oni recording in a loop for CLUTTERSEG_SOAK_SECONDS (default 1800) at full
-// speed while sampling the process's VmRSS, open descriptors and threads from /proc, then
+// replays a generated 640x480 .oni recording in a loop for CLUTTERSEG_SOAK_SECONDS (default 1800)
+// at full speed while sampling the process's VmRSS, open descriptors and threads from /proc, then
 // replays a 30 Hz recording at its recorded rate for CLUTTERSEG_SOAK_30HZ_SECONDS (default a
 // sixth of the first phase, at least 30 s) and requires that no frame is dropped. The 30 Hz
 // recording is a 320x240 synthetic one from clutterseg-synth (full-resolution segmentation
 // runs at about 24-40 FPS on a 2-core machine, so at 640x480 the phase would measure the
 // machine's load rather than the daemon); CLUTTERSEG_SOAK_30HZ_FULL_RES=1 replays the 640x480
-// Kinect recording at 30 Hz instead. The samples are written to <build>/soak_samples.csv and
+// tabletop recording at 30 Hz instead. The samples are written to <build>/soak_samples.csv and
 // summarised on stdout. See docs/reliability.md.
 
 #include <signal.h>
@@ -162,10 +162,10 @@ class Soak : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = testing::ScratchDir("soak");
-    oni_ = (dir_ / "mosd45.oni").string();
-    // All 45 real Kinect frames of the mOSD learn split, 30 fps timestamps: at full speed the
+    oni_ = (dir_ / "tabletop45.oni").string();
+    // 45 generated full-resolution tabletop frames, 30 fps timestamps: at full speed the
     // player rewinds (OpenNI2 repeat mode) every few seconds.
-    have_oni_ = daemon::testutil::WriteMosdOni(oni_, 45);
+    daemon::testutil::WriteTabletopOni(oni_, 45);
     qvga_oni_ = (dir_ / "synth_qvga.oni").string();
     std::string err;
     have_qvga_ = daemon::testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", qvga_oni_, "--count", "30",
@@ -179,13 +179,11 @@ class Soak : public ::testing::Test {
   }
   static inline std::filesystem::path dir_;
   static inline std::string oni_;
-  static inline bool have_oni_{false};
   static inline std::string qvga_oni_;
   static inline bool have_qvga_{false};
 };
 
 TEST_F(Soak, FullSpeedLoopKeepsMemoryDescriptorsAndThreadsFlat) {
-  if (!have_oni_) GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
   const double seconds = SoakSeconds();
   const PhaseResult r = RunPhase({CLUTTERSEG_DAEMON_EXE, "--source", oni_, "--speed", "max",
                                   "--loop", "--lcm-url", "file:///dev/null?mode=w"},
@@ -239,9 +237,6 @@ TEST_F(Soak, FullSpeedLoopKeepsMemoryDescriptorsAndThreadsFlat) {
 TEST_F(Soak, ThirtyHertzReplayDropsNothing) {
   const char* full = std::getenv("CLUTTERSEG_SOAK_30HZ_FULL_RES");
   const bool full_res = full != nullptr && std::string(full) == "1";
-  if (full_res && !have_oni_) {
-    GTEST_SKIP() << "shared data 'mosd-learn' not found under " << testing::DataDir();
-  }
   ASSERT_TRUE(full_res || have_qvga_) << "clutterseg-synth could not write the recording";
   const double seconds = ThirtyHzSeconds();
   const PhaseResult r =
