@@ -13,12 +13,19 @@ if(TARGET clutterseg-record AND CLUTTERSEG_BUILD_TESTS)
   set_tests_properties(clutterseg_record.no_device PROPERTIES
     PASS_REGULAR_EXPRESSION "no OpenNI2 device is connected"
     FAIL_REGULAR_EXPRESSION "Sanitizer|runtime error" TIMEOUT 60 LABELS "drivers")
-  if(EXISTS "${CLUTTERSEG_DATA_DIR}/mosd-learn/learn0.pcd")
+  if(TARGET clutterseg-synth)
+    # PCD frames with colour written by clutterseg-synth, recorded into an .oni.
+    add_test(NAME clutterseg_record.synth_pcds
+             COMMAND clutterseg-synth --out ${CMAKE_CURRENT_BINARY_DIR}/record_pcds --count 3
+                     --seed 4)
+    set_tests_properties(clutterseg_record.synth_pcds PROPERTIES
+      FIXTURES_SETUP clutterseg_record_pcds TIMEOUT 120 LABELS "drivers")
     add_test(NAME clutterseg_record.from_pcd
              COMMAND clutterseg-record ${CMAKE_CURRENT_BINARY_DIR}/from_pcd.oni
-                     --from-pcd ${CLUTTERSEG_DATA_DIR}/mosd-learn --frames 3)
+                     --from-pcd ${CMAKE_CURRENT_BINARY_DIR}/record_pcds --frames 3)
     set_tests_properties(clutterseg_record.from_pcd PROPERTIES
       PASS_REGULAR_EXPRESSION "wrote 3 frames \\(depth\\+color\\)"
+      FIXTURES_REQUIRED clutterseg_record_pcds
       FAIL_REGULAR_EXPRESSION "Sanitizer|runtime error" TIMEOUT 60 LABELS "drivers")
   endif()
 endif()

@@ -2,24 +2,20 @@
 # Installs a built clutterseg into a staging root (DESTDIR, or the Debian packages extracted
 # with dpkg-deb) and uses it as a separate robotics project would:
 #   - builds tests/install/consumer with find_package(clutterseg) and, separately, with
-#     pkg-config clutterseg, and runs both on a real frame;
+#     pkg-config clutterseg, and runs both on a tabletop frame the installed clutterseg-synth
+#     writes (no downloaded data);
 #   - runs the installed daemon on a recording: it must load OpenNI2's recordings-only
 #     drivers from the installed prefix, never from the build tree;
 #   - decodes the daemon's log with the installed Python bindings (no lcm module) and with
 #     the installed Java jar and LCM's Java library;
 #   - checks the installed systemd unit with systemd-analyze verify.
 #
-# Usage: check_install.sh MODE BUILD_DIR SOURCE_DIR DATA_DIR WORK_DIR
+# Usage: check_install.sh MODE BUILD_DIR SOURCE_DIR WORK_DIR
 #   MODE install  DESTDIR=WORK/root cmake --install BUILD_DIR
 #   MODE deb      cpack -G DEB in BUILD_DIR, check the three packages, extract them
 # Exit 0 when everything works; the first failure is printed with what was expected.
 set -euo pipefail
-mode=$1 build=$(realpath "$2") src=$(realpath "$3") data=$4 work=$5
-frame="$data/mosd-learn/learn0.pcd"
-if [ ! -f "$frame" ]; then
-  echo "SKIP: shared data not found ($frame)"
-  exit 0
-fi
+mode=$1 build=$(realpath "$2") src=$(realpath "$3") work=$4
 fail() { echo "FAIL: $*" >&2; exit 1; }
 rm -rf "$work"
 mkdir -p "$work"
@@ -67,6 +63,12 @@ if find "$root" -path '*/internal/*' -name '*.h' | grep -q .; then
   fail "internal headers installed: $(find "$root" -path '*/internal/*' -name '*.h' | head -3)"
 fi
 "$p/bin/clutterseg" --version | grep -q "clutterseg [0-9]" || fail "clutterseg --version"
+
+# A cluttered tabletop frame (organized 640x480 PCD with colour) from the installed generator.
+"$p/bin/clutterseg-synth" --out "$work/frame" --count 1 --seed 7 --objects 4:8 > /dev/null 2>&1 ||
+  fail "installed clutterseg-synth --out"
+frame=$(ls "$work"/frame/*.pcd 2> /dev/null | head -1)
+[ -n "$frame" ] || fail "clutterseg-synth wrote no PCD into $work/frame"
 
 # 1. A consumer project through the CMake package.
 cmake -S "$src/tests/install/consumer" -B "$work/consumer" -G Ninja \
