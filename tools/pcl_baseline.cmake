@@ -21,10 +21,9 @@ target_include_directories(clutterseg-pcl-baseline SYSTEM PRIVATE ${PCL_INCLUDE_
 
 if(CLUTTERSEG_BUILD_TESTS)
   find_package(GTest REQUIRED)
-  include(GoogleTest)
+  include(${PROJECT_SOURCE_DIR}/tools/cmake/clutterseg_gtest.cmake)
   add_executable(pcl_baseline_test ${CMAKE_CURRENT_LIST_DIR}/pcl_baseline/pcl_baseline_test.cc)
   target_link_libraries(pcl_baseline_test PRIVATE clutterseg_pcl_baseline clutterseg_testing
                         GTest::gtest GTest::gtest_main clutterseg_options)
-  gtest_discover_tests(pcl_baseline_test DISCOVERY_TIMEOUT 60
-    PROPERTIES TIMEOUT 600 LABELS "pcl")
+  clutterseg_discover_tests(pcl_baseline_test TIMEOUT 600 LABELS pcl)
 endif()

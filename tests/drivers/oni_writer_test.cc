@@ -262,7 +262,7 @@ TEST(OniReaderTest, SurvivesRandomMutations) {
   EXPECT_GT(parsed, 0);  // most mutations hit pixel payloads and still parse
 }
 
-TEST(OniReaderTest, IndexesTheUnfinalizedOpenNI1Recording) {
+TEST(OniReaderRealData, IndexesTheUnfinalizedOpenNI1Recording) {
   CLUTTERSEG_REQUIRE_DATA("oni-unfinalized/test.oni");
   const std::string path = (testing::DataDir() / "oni-unfinalized/test.oni").string();
   OniReader reader;

@@ -225,7 +225,7 @@ TEST(OpenNI2SourceTest, ReopenAfterClose) {
   }
 }
 
-TEST(OpenNI2SourceTest, PcdFramesSurviveTheOniRoundTrip) {
+TEST(OpenNI2SourceRealData, PcdFramesSurviveTheOniRoundTrip) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   PcdDirectorySourceOptions po;
   po.path = (testing::DataDir() / "mosd-learn").string();
@@ -351,7 +351,7 @@ TEST(OpenNI2SourceTest, RequestStopMakesReadReturn) {
   EXPECT_EQ(src.Read(2000, &frame), ReadStatus::kOk) << src.last_error();
 }
 
-TEST(OpenNI2SourceTest, UnfinalizedRealRecordingFailsToOpen) {
+TEST(OpenNI2SourceRealData, UnfinalizedRealRecordingFailsToOpen) {
   CLUTTERSEG_REQUIRE_DATA("oni-unfinalized/test.oni");
   const std::string msg =
       ExpectOpenFails((testing::DataDir() / "oni-unfinalized/test.oni").string());

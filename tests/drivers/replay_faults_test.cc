@@ -302,7 +302,7 @@ TEST(DepthPngFaults, AnotherAspectRatioThanTheIntrinsicsIsSkipped) {
 // TUM depth is value / 5000 m: read with the TUM scale it is the metres TUM documents; the
 // frames are never empty either way, so a wrong scale shows only downstream (see the
 // clutterseg-segment test), which is why the scale is an explicit option.
-TEST(DepthPngFaults, TumFrameWithItsDepthScale) {
+TEST(DepthPngFaultsRealData, TumFrameWithItsDepthScale) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/TUM_depth.png");
   DepthPngSourceOptions o;
   o.directory = (testing::DataDir() / "tum-frame").string();

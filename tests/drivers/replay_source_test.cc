@@ -162,7 +162,7 @@ TEST(PcdDirectorySourceTest, ReadsWrittenCloudsInOrderThenEndsOrLoops) {
   EXPECT_THROW(none.Open(), std::runtime_error);
 }
 
-TEST(PcdDirectorySourceTest, ReproducesMosdXyzWithinDepthQuantisation) {
+TEST(PcdDirectorySourceRealData, ReproducesMosdXyzWithinDepthQuantisation) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   for (const bool estimate : {true, false}) {
     PcdDirectorySourceOptions o;
@@ -248,7 +248,7 @@ TEST(DepthPngSourceTest, FlatLayoutWithColourThenEndOrLoop) {
   EXPECT_THROW(none.Open(), std::runtime_error);
 }
 
-TEST(DepthPngSourceTest, OsdPngMatchesMosdCloud) {
+TEST(DepthPngSourceRealData, OsdPngMatchesMosdCloud) {
   CLUTTERSEG_REQUIRE_DATA("osd-png/depth/learn6.png");
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn6.pcd");
   DepthPngSourceOptions o;
@@ -274,7 +274,7 @@ TEST(DepthPngSourceTest, OsdPngMatchesMosdCloud) {
   EXPECT_EQ(bad, 0u);
 }
 
-TEST(DepthPngSourceTest, UcnDemoPairsColourAndReadsIntrinsicsJson) {
+TEST(DepthPngSourceRealData, UcnDemoPairsColourAndReadsIntrinsicsJson) {
   CLUTTERSEG_REQUIRE_DATA("ucn-demo/camera_params.json");
   DepthPngSourceOptions o;
   o.directory = (testing::DataDir() / "ucn-demo").string();

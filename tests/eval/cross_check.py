@@ -214,12 +214,67 @@ class RefArgs:
         self.coverage_percent = coverage_percent
 
 
+def find_data_root(source_dir):
+    """The real data sets' root, searched as the C++ tests do (CLUTTERSEG_DATA, then the
+    checkout's data/, then ../shared/data beside it), or None when none exists."""
+    env = os.environ.get("CLUTTERSEG_DATA")
+    if env:
+        return env if os.path.isdir(env) else None
+    for cand in (os.path.join(source_dir, "data"),
+                 os.path.join(source_dir, "..", "shared", "data")):
+        if os.path.isdir(cand):
+            return cand
+    return None
+
+
+def real_frames(opt, ref):
+    """Real mOSD frames (binary_compressed, read by clutterseg's own PCD reader): predict
+    whole objects shifted by a few pixels and compare both conventions. Exit 77 (skipped)
+    without any data, 1 when a data root lacks the frames."""
+    data_dir = find_data_root(opt.source_dir)
+    if data_dir is None:
+        print("SKIP: real data not found (CLUTTERSEG_DATA, data/, ../shared/data): run "
+              "tools/fetch_data.sh to fetch it")
+        return 77
+    os.makedirs(opt.workdir)
+    mosd = os.path.join(data_dir, "mosd-learn")
+    compared = 0
+    for name in ("learn5.pcd", "learn27.pcd", "learn36.pcd"):
+        gt_path = os.path.join(mosd, name)
+        if not os.path.isfile(gt_path):
+            print("FAIL: real data '%s' missing under %s: run tools/fetch_data.sh again"
+                  % (os.path.join("mosd-learn", name), data_dir))
+            return 1
+        n, cols = ref.read_pcd(gt_path)
+        width = 640
+        pred = [0] * n
+        for k, raw in enumerate(cols["label"]):
+            if raw >= 10:
+                target = k + 4 if (k % width) + 4 < width else k
+                pred[target] = raw // 10
+        pred_path = os.path.join(opt.workdir, "pred_" + name)
+        xyz = list(zip(cols["x"], cols["y"], cols["z"]))
+        write_pcd(pred_path, width, n // width, xyz, pred)
+        for conv in ("mosd-parts", "mosd-objects"):
+            got = tool_json(opt.tool, [gt_path, pred_path, "--gt-convention", conv, "-q"])
+            want = ref.summarize([ref.score_files(gt_path, pred_path, RefArgs(conv))],
+                                 RefArgs(conv), 0)
+            compare("%s/%s" % (name, conv), got, want)
+            compared += 1
+            print("%s %s: wov %.4f f1 %.4f" % (name, conv, want["wov"], want["f1"]))
+    print("%d comparisons, %d failures" % (compared, len(failures)))
+    return 1 if failures else 0
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--tool", required=True)
     parser.add_argument("--reference", required=True)
     parser.add_argument("--workdir", required=True)
-    parser.add_argument("--data-dir", default="")
+    parser.add_argument("--source-dir", default="",
+                        help="checkout whose data/ and ../shared/data are searched")
+    parser.add_argument("--real-data", action="store_true",
+                        help="compare on real mOSD frames only (ctest label realdata)")
     parser.add_argument("--scenes", type=int, default=24)
     opt = parser.parse_args()
 
@@ -229,6 +284,8 @@ def main():
     spec.loader.exec_module(ref)
 
     shutil.rmtree(opt.workdir, ignore_errors=True)
+    if opt.real_data:
+        return real_frames(opt, ref)
     gt_dir = os.path.join(opt.workdir, "gt")
     pred_dir = os.path.join(opt.workdir, "pred")
     os.makedirs(gt_dir)
@@ -355,34 +412,6 @@ def main():
               % (bad, proc.returncode))
     proc = run_tool(opt.tool, ["--help"])
     check(proc.returncode == 0 and "--gt-convention" in proc.stdout, "--help")
-
-    # 6. Real mOSD frames (binary_compressed, read by clutterseg's own PCD reader): predict
-    #    whole objects shifted by a few pixels and compare both conventions.
-    data_dir = os.environ.get("CLUTTERSEG_DATA") or opt.data_dir
-    mosd = os.path.join(data_dir, "mosd-learn")
-    if data_dir and os.path.isdir(mosd):
-        for name in ("learn5.pcd", "learn27.pcd", "learn36.pcd"):
-            gt_path = os.path.join(mosd, name)
-            n, cols = ref.read_pcd(gt_path)
-            width = 640
-            pred = [0] * n
-            for k, raw in enumerate(cols["label"]):
-                if raw >= 10:
-                    target = k + 4 if (k % width) + 4 < width else k
-                    pred[target] = raw // 10
-            pred_path = os.path.join(opt.workdir, "pred_" + name)
-            xyz = list(zip(cols["x"], cols["y"], cols["z"]))
-            write_pcd(pred_path, width, n // width, xyz, pred)
-            for conv in ("mosd-parts", "mosd-objects"):
-                got = tool_json(opt.tool, [gt_path, pred_path, "--gt-convention", conv, "-q"])
-                want = ref.summarize([ref.score_files(gt_path, pred_path, RefArgs(conv))],
-                                     RefArgs(conv), 0)
-                compare("%s/%s" % (name, conv), got, want)
-                compared += 1
-                print("%s %s: wov %.4f f1 %.4f" % (name, conv, want["wov"], want["f1"]))
-    else:
-        print("shared mOSD data not found under '%s': real-frame comparison skipped"
-              % data_dir)
 
     print("%d comparisons, %d failures" % (compared, len(failures)))
     return 1 if failures else 0

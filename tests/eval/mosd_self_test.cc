@@ -24,7 +24,7 @@ std::vector<fs::path> MosdFrames() {
   return frames;
 }
 
-TEST(MosdSelfTest, EveryFrameAgainstItselfIsPerfect) {
+TEST(MosdSelfRealData, EveryFrameAgainstItselfIsPerfect) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   const std::vector<fs::path> frames = MosdFrames();
   ASSERT_EQ(frames.size(), 45u);
@@ -61,7 +61,7 @@ TEST(MosdSelfTest, EveryFrameAgainstItselfIsPerfect) {
 
 // Predicting whole objects while scoring against parts must penalise exactly the frames
 // whose objects have several visible parts, and never the others.
-TEST(MosdSelfTest, ObjectLabelsAgainstPartsPenaliseMultiPartObjects) {
+TEST(MosdSelfRealData, ObjectLabelsAgainstPartsPenaliseMultiPartObjects) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   EvalParams params;
   params.gt_convention = GtConvention::kMosdParts;

@@ -328,7 +328,7 @@ TEST(PcdReaderTest, AcceptsVersion05WithoutWidthAndHeight) {
   EXPECT_EQ(cloud.xyz[1].z, 6.f);
 }
 
-TEST(PcdReaderTest, DecodesAllMosdLearnFrames) {
+TEST(PcdReaderRealData, DecodesAllMosdLearnFrames) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   double total_ms = 0.0;
   for (int frame = 0; frame < 45; ++frame) {
@@ -541,7 +541,7 @@ TEST_F(PcdMalformedTest, CorruptLzfStreams) {
   ExpectFails(with_stream({0x1f, 0x01, 0x02, 0x03}, 200), "runs past the end of the stream");
 }
 
-TEST(PcdReaderTest, DecodesPclScenes) {
+TEST(PcdReaderRealData, DecodesPclScenes) {
   CLUTTERSEG_REQUIRE_DATA("pcl-scenes/milk_cartoon_all_small_clorox.pcd");
   const std::filesystem::path dir = testing::DataDir() / "pcl-scenes";
   // rgba as U4, packed rgb as F4; all organized 640x480 binary_compressed Kinect-class frames.

@@ -32,9 +32,9 @@ size_t CountMismatches(const pcl::PointCloud<pcl::PointXYZRGBL>& pcl_cloud,
   return bad;
 }
 
-class PclInteropTest : public ::testing::TestWithParam<PcdEncoding> {};
+class PclInteropRealData : public ::testing::TestWithParam<PcdEncoding> {};
 
-TEST_P(PclInteropTest, BothDirections) {
+TEST_P(PclInteropRealData, BothDirections) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn6.pcd");
   const std::string source = (testing::DataDir() / "mosd-learn/learn6.pcd").string();
   const core::PointCloud ours = ReadPcd(source);
@@ -73,7 +73,7 @@ TEST_P(PclInteropTest, BothDirections) {
   EXPECT_EQ(CountMismatches(reference, from_pcl), 0u);
 }
 
-INSTANTIATE_TEST_SUITE_P(AllEncodings, PclInteropTest,
+INSTANTIATE_TEST_SUITE_P(AllEncodings, PclInteropRealData,
                          ::testing::Values(PcdEncoding::kAscii, PcdEncoding::kBinary,
                                            PcdEncoding::kBinaryCompressed));
 

@@ -359,7 +359,7 @@ TEST(IntrinsicsJsonTest, RefusesFilesOver1MiB) {
                 "larger than 1048576 bytes");
 }
 
-TEST(IntrinsicsJsonTest, ReadsTumAndUcnFiles) {
+TEST(IntrinsicsJsonRealData, ReadsTumAndUcnFiles) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/camera_primesense.json");
   CLUTTERSEG_REQUIRE_DATA("ucn-demo/camera_params.json");
   const core::CameraIntrinsics tum =
@@ -398,7 +398,7 @@ CloudStats Stats(const core::PointCloud& cloud) {
   return s;
 }
 
-TEST(DepthPngCloudTest, TumFrame) {
+TEST(DepthPngCloudRealData, TumFrame) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/TUM_depth.png");
   const std::filesystem::path dir = testing::DataDir() / "tum-frame";
   const core::CameraIntrinsics k = ReadIntrinsicsJson((dir / "camera_primesense.json").string());
@@ -413,7 +413,7 @@ TEST(DepthPngCloudTest, TumFrame) {
   EXPECT_LT(s.max_z, 10.f);
 }
 
-TEST(DepthPngCloudTest, UcnFrames) {
+TEST(DepthPngCloudRealData, UcnFrames) {
   CLUTTERSEG_REQUIRE_DATA("ucn-demo/000000-depth.png");
   const std::filesystem::path dir = testing::DataDir() / "ucn-demo";
   const core::CameraIntrinsics k = ReadIntrinsicsJson((dir / "camera_params.json").string());
@@ -432,8 +432,8 @@ TEST(DepthPngCloudTest, UcnFrames) {
 }
 
 TEST(DepthPngCloudTest, SizeMismatchNamesTheFile) {
-  CLUTTERSEG_REQUIRE_DATA("ucn-demo/000000-depth.png");
-  const std::string depth = (testing::DataDir() / "ucn-demo/000000-depth.png").string();
+  const std::string depth = (testing::ScratchDir("png_size_mismatch") / "depth.png").string();
+  WriteDepthPng(depth, core::DepthImage(640, 480));
   core::CameraIntrinsics k;
   k.width = 320;
   k.height = 240;
@@ -442,7 +442,7 @@ TEST(DepthPngCloudTest, SizeMismatchNamesTheFile) {
 
 // The OSD learn6 depth PNG and the mOSD learn6 PCD come from the same frame: where both are
 // finite, back-projecting the PNG with fx = fy = 525 must reproduce the PCD's points.
-TEST(DepthPngCloudTest, OsdLearn6MatchesMosdPcd) {
+TEST(DepthPngCloudRealData, OsdLearn6MatchesMosdPcd) {
   CLUTTERSEG_REQUIRE_DATA("osd-png/depth/learn6.png");
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn6.pcd");
   const core::PointCloud pcd = ReadPcd((testing::DataDir() / "mosd-learn/learn6.pcd").string());

@@ -36,7 +36,7 @@ Frame Load(const std::string& rel) {
 bool IsTable(uint32_t l) { return l >= 1 && l <= 9; }
 bool IsObject(uint32_t l) { return l >= 20; }
 
-TEST(RealFrames, TablePlaneHoldsTheTableButNotTheObjects) {
+TEST(RealDataFrames, TablePlaneHoldsTheTableButNotTheObjects) {
   for (const char* rel : {"mosd-learn/learn0.pcd", "mosd-learn/learn17.pcd",
                           "mosd-learn/learn25.pcd", "mosd-learn/learn40.pcd"}) {
     CLUTTERSEG_REQUIRE_DATA(rel);
@@ -83,7 +83,7 @@ TEST(RealFrames, TablePlaneHoldsTheTableButNotTheObjects) {
   }
 }
 
-TEST(RealFrames, LinkageSeparatesObjectsAndIsThreadCountIndependent) {
+TEST(RealDataFrames, LinkageSeparatesObjectsAndIsThreadCountIndependent) {
   const char* rel = "mosd-learn/learn5.pcd";
   CLUTTERSEG_REQUIRE_DATA(rel);
   const Frame fr = Load(rel);

@@ -382,7 +382,7 @@ TEST(SegmentTool, UnorganizedCloudKeepsItsLayoutAndPointOrder) {
   EXPECT_EQ(png.height, kH / 2);
 }
 
-TEST(SegmentTool, TumDepthNeedsItsScale) {
+TEST(SegmentToolRealData, TumDepthNeedsItsScale) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/TUM_depth.png");
   const fs::path tum = testing::DataDir() / "tum-frame";
   const fs::path dir = testing::ScratchDir("segment_tool_tum");

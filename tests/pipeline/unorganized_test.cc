@@ -116,7 +116,7 @@ TEST(UnorganizedClouds, ShuffledSyntheticRoomsKeepTheOrganizedQuality) {
 // The check: real mOSD frames of every category, their points shuffled into
 // unorganized clouds, score within 0.01 WOv of the organized frames, each frame and on
 // average (measured: at most 0.0021 apart per frame).
-TEST(UnorganizedClouds, ShuffledMosdFramesStayWithinOneHundredthWov) {
+TEST(UnorganizedCloudsRealData, ShuffledMosdFramesStayWithinOneHundredthWov) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   CLUTTERSEG_REQUIRE_DATA("mosd-clutter/test44.pcd");
   core::ThreadPool pool(2);

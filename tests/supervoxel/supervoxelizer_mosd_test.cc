@@ -34,9 +34,9 @@ Quality Measure(const core::PointCloud& cloud, const Supervoxels& sv) {
   return {total > 0 ? static_cast<double>(leaked) / total : 0.0, sv.size()};
 }
 
-class MosdFrames : public ::testing::TestWithParam<const char*> {};
+class MosdRealDataFrames : public ::testing::TestWithParam<const char*> {};
 
-TEST_P(MosdFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
+TEST_P(MosdRealDataFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
   const std::string rel = std::string("mosd-learn/") + GetParam() + ".pcd";
   CLUTTERSEG_REQUIRE_DATA(rel);
   const core::PointCloud cloud = io::ReadPcd((clutterseg::testing::DataDir() / rel).string());
@@ -78,7 +78,7 @@ TEST_P(MosdFrames, LabelsEveryPointRespectsObjectsAndIsDeterministic) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Learn, MosdFrames,
+INSTANTIATE_TEST_SUITE_P(Learn, MosdRealDataFrames,
                          ::testing::Values("learn0", "learn10", "learn20", "learn30", "learn40"),
                          [](const ::testing::TestParamInfo<const char*>& param_info) {
                            return std::string(param_info.param);

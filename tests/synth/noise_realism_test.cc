@@ -67,7 +67,7 @@ double RenderedTableMedian(const SensorParams& sensor, int* patches) {
   return Median(values);
 }
 
-TEST(NoiseRealism, TablePatchVariationMatchesRealKinectFrames) {
+TEST(NoiseRealismRealData, TablePatchVariationMatchesRealKinectFrames) {
   CLUTTERSEG_REQUIRE_DATA("mosd-learn/learn0.pcd");
   int real_patches = 0;
   const double real = RealTableMedian(&real_patches);

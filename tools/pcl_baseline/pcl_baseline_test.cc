@@ -73,13 +73,13 @@ double BestIou(const LabelledCloud& gt, const LabelledCloud& pred, std::uint32_t
   return best;
 }
 
-class PclBaselineTest : public ::testing::Test {
+class PclBaselineRealData : public ::testing::Test {
  protected:
   void SetUp() override { scratch_ = testing::ScratchDir("pcl_baseline"); }
   std::filesystem::path scratch_;
 };
 
-TEST_F(PclBaselineTest, LccpLabelsEveryValidPointOfTheOriginalCloud) {
+TEST_F(PclBaselineRealData, LccpLabelsEveryValidPointOfTheOriginalCloud) {
   CLUTTERSEG_REQUIRE_DATA(kFrame);
   const std::filesystem::path in = testing::DataDir() / kFrame;
   const BaselineParams params;
@@ -97,7 +97,7 @@ TEST_F(PclBaselineTest, LccpLabelsEveryValidPointOfTheOriginalCloud) {
   EXPECT_GT(BestIou(input, output, 30), 0.85);
 }
 
-TEST_F(PclBaselineTest, LccpIsDeterministic) {
+TEST_F(PclBaselineRealData, LccpIsDeterministic) {
   CLUTTERSEG_REQUIRE_DATA(kFrame);
   const std::filesystem::path in = testing::DataDir() / kFrame;
   BaselineParams params;
@@ -107,7 +107,7 @@ TEST_F(PclBaselineTest, LccpIsDeterministic) {
   EXPECT_EQ(ReadLabelledPcd(scratch_ / "a.pcd").label, ReadLabelledPcd(scratch_ / "b.pcd").label);
 }
 
-TEST_F(PclBaselineTest, PlanesClustersRemovesTheTableAndKeepsTheObject) {
+TEST_F(PclBaselineRealData, PlanesClustersRemovesTheTableAndKeepsTheObject) {
   CLUTTERSEG_REQUIRE_DATA(kFrame);
   const std::filesystem::path in = testing::DataDir() / kFrame;
   BaselineParams params;
@@ -131,7 +131,7 @@ TEST_F(PclBaselineTest, PlanesClustersRemovesTheTableAndKeepsTheObject) {
   EXPECT_GT(BestIou(input, output, 30), 0.85);
 }
 
-TEST_F(PclBaselineTest, RejectsBadInput) {
+TEST(PclBaselineParams, RejectsBadInput) {
   EXPECT_THROW(ParseMethod("graphcut"), std::invalid_argument);
   EXPECT_EQ(ParseMethod(MethodName(Method::kPlanesClusters)), Method::kPlanesClusters);
 
