@@ -7,13 +7,14 @@
 # WOv / F1 per set and category and the merged-object count (the evaluator's
 # under-segmentation count summed over mosd-clutter).
 # Usage: tools/clutter_report.sh [BUILD_DIR] [OUT_DIR]   (defaults: build/release, out/clutter)
-# Needs ../shared/data/mosd-learn and mosd-clutter (or $CLUTTERSEG_DATA/...). Per-frame CSVs
+# Needs the real sets mosd-learn and mosd-clutter (tools/fetch_data.sh; found as the tests find
+# them: $CLUTTERSEG_DATA, data/, ../shared/data). Per-frame CSVs
 # stay in OUT_DIR/<row>.<set>.csv; the segmented PCDs are deleted after scoring.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
 out=${2:-out/clutter}
-data=${CLUTTERSEG_DATA:-../shared/data}
+data=$(tools/data_root.sh) || { echo "no real data found: run tools/fetch_data.sh" >&2; exit 1; }
 seg=$build/tools/clutterseg-segment
 ev=$build/tools/clutterseg-eval
 synth=$build/tools/clutterseg-synth

@@ -5,12 +5,13 @@
 # Usage: tools/quality_report.sh [BUILD_DIR] [OUT_DIR] [PCL_BUILD_DIR]
 #   (defaults: build/release, out/quality, build/pcl). When PCL_BUILD_DIR holds
 #   tools/clutterseg-pcl-baseline (cmake --preset pcl), PCL's baselines are scored too.
-# Needs ../shared/data/mosd-learn (or $CLUTTERSEG_DATA/mosd-learn).
+# Needs the real set mosd-learn (tools/fetch_data.sh; found as the tests find it:
+# $CLUTTERSEG_DATA, data/, ../shared/data).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${1:-build/release}
 out=${2:-out/quality}
-data=${CLUTTERSEG_DATA:-../shared/data}
+data=$(tools/data_root.sh) || { echo "no real data found: run tools/fetch_data.sh" >&2; exit 1; }
 seg=$build/tools/clutterseg-segment
 ev=$build/tools/clutterseg-eval
 synth=$build/tools/clutterseg-synth
