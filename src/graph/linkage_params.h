@@ -52,8 +52,10 @@ struct LinkageParams {
   /// of concavity_tolerance_deg, degrees: concave connections between the two are kept only
   /// between patches of one colour (the colour cut from color_min_angle_deg), which joins the
   /// curved insides of cups and bowls. Without colour the cut cannot tell them from the
-  /// contacts between objects, and concavity_tolerance_deg holds (0 = always).
-  float color_concavity_tolerance_deg{60.0f};
+  /// contacts between objects, and concavity_tolerance_deg holds (0 = always). Off by
+  /// default: on frames it was not chosen on it also joins touching objects of one colour
+  /// (docs/method.md section 7); 60 is the value it was measured with.
+  float color_concavity_tolerance_deg{0.0f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;

@@ -161,8 +161,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_GT(defaults.objects.support_reclaim_passes, 0);
   EXPECT_TRUE(defaults.objects.merge_small_groups);
   EXPECT_GT(defaults.linkage.color_threshold, 0.f);
-  EXPECT_GT(defaults.linkage.color_concavity_tolerance_deg,
-            defaults.linkage.concavity_tolerance_deg);
+  EXPECT_EQ(defaults.linkage.color_concavity_tolerance_deg, 0.f);  // measured, not kept
   pipeline::SegmenterParams p;
   LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/paper.yaml", &p);
   EXPECT_EQ(p.supervoxel.normal_importance, 4.f);

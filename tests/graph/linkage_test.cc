@@ -497,9 +497,9 @@ TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
 
 TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   // A 50 degree concavity (beyond the 35 degree tolerance): the inside of a bowl when both
-  // patches have one colour, a contact when they differ. With the defaults (tolerance 60
-  // with colour, colour cut from 35 degrees) it is kept only in the first case, and cut
-  // whatever the colours when the cloud has none.
+  // patches have one colour, a contact when they differ. With the tolerance at 60 with
+  // colour (off by default) and the colour cut from 35 degrees it is kept only in the first
+  // case, and cut whatever the colours when the cloud has none.
   HandGraph g;
   const float b = 50.f * 3.14159265f / 180.f;
   g.Add({0.f, 0.3f, 1.f}, kUp, PatchType::kPlanar);
@@ -517,9 +517,10 @@ TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   g.sv.height = 1;
   LinkageCues cues;
   cues.cloud = &cloud;
-  const LinkageParams p;
+  LinkageParams p;
+  EXPECT_EQ(p.color_concavity_tolerance_deg, 0.f);  // off by default (docs/method.md)
+  p.color_concavity_tolerance_deg = 60.f;
   ASSERT_LT(p.concavity_tolerance_deg, 50.f);
-  ASSERT_GT(p.color_concavity_tolerance_deg, 50.f);
   LinkageResult r;
   Linkage(p).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 1);  // one colour
