@@ -164,5 +164,35 @@ TEST_F(DaemonHonest, AFullDiskUnderTheLogIsCountedAsWhatReachedTheLog) {
               static_cast<long long>(failures));
 }
 
+// Writes `text` to `path`.
+void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+
+// A second YAML document is refused, naming the file and the line, with exit code 2: in the
+// configuration file, and in the ROS camera_info file camera.intrinsics_file names (yaml-cpp's
+// Load() read its first document and dropped the second, focal length and all, silently).
+TEST_F(DaemonHonest, ASecondYamlDocumentIsRefusedNamingTheFileAndLine) {
+  ASSERT_TRUE(have_recording_);
+  const std::string config = (dir_ / "two_documents.yaml").string();
+  WriteText(config, "speed: max\n---\nlcm:\n  url: memq://\n");
+  std::string err;
+  int rc = testutil::Run(Args("file:///dev/null?mode=w", {"--config", config}), seconds(60), &err);
+  EXPECT_EQ(rc, kExitUsage) << err;
+  EXPECT_NE(LastLine(err).find(config + ":3: a second YAML document"), std::string::npos) << err;
+
+  const std::string camera_info = (dir_ / "camera_info_two_documents.yaml").string();
+  const std::string matrix = "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [";
+  WriteText(camera_info, "image_width: 160\nimage_height: 120\n" + matrix +
+                             "142.5, 0, 79.5, 0, 142.5, 59.5, 0, 0, 1]\n---\n" + matrix +
+                             "285, 0, 79.5, 0, 285, 59.5, 0, 0, 1]\n");
+  err.clear();
+  rc = testutil::Run(Args("file:///dev/null?mode=w",
+                          {"--set", "camera.intrinsics_file=" + camera_info, "--max-frames", "2"}),
+                     seconds(60), &err);
+  EXPECT_EQ(rc, kExitUsage) << err;
+  EXPECT_NE(LastLine(err).find(camera_info + ": camera_info: line 8: a second YAML document"),
+            std::string::npos)
+      << err;
+}
+
 }  // namespace
 }  // namespace clutterseg::daemon
