@@ -8,6 +8,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -49,6 +50,17 @@ struct CommandLine {
   bool print_config{false};
   std::vector<std::string> sets;
 };
+
+// Flushes standard output and checks that everything printed reached it (a full device, a
+// closed pipe); logs the failure naming `what` and returns false otherwise.
+bool StdoutWritten(const std::string& what) {
+  errno = 0;
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return true;
+  Log(LogLevel::kError,
+      "cannot write " + what + " to standard output: " +
+          (errno != 0 ? std::string(std::strerror(errno)) : std::string("the write failed")));
+  return false;
+}
 
 // The configuration: file (or defaults), then command-line options, then --set overrides.
 // @throws ConfigError.
@@ -144,7 +156,8 @@ int Run(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
-    return code == 0 ? kExitOk : kExitUsage;
+    if (code == 0) return StdoutWritten("the --help or --version text") ? kExitOk : kExitFailure;
+    return kExitUsage;
   }
 
   DaemonConfig cfg;
@@ -156,7 +169,7 @@ int Run(int argc, char** argv) {
   }
   if (cl.print_config) {
     std::fputs(ConfigToYaml(cfg).c_str(), stdout);
-    return kExitOk;
+    return StdoutWritten("the configuration (--print-config)") ? kExitOk : kExitFailure;
   }
   SetLogLevel(cfg.log_level);
   // Before the threads that allocate (LCM, capture, lanes) start.

@@ -167,6 +167,19 @@ TEST_F(DaemonHonest, AFullDiskUnderTheLogIsCountedAsWhatReachedTheLog) {
 // Writes `text` to `path`.
 void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
+// Runs the shell command `command` (with a hang guard of 60 s); returns its exit code and its
+// standard error in *err. For redirections the test helpers do not offer (> /dev/full).
+int Shell(const std::string& command, const fs::path& scratch, std::string* err) {
+  const fs::path err_file = scratch / "shell_stderr.txt";
+  const int status =
+      std::system(("timeout 60 " + command + " 2> '" + err_file.string() + "'").c_str());
+  std::ifstream in(err_file);
+  std::stringstream text;
+  text << in.rdbuf();
+  *err = text.str();
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
 // A second YAML document is refused, naming the file and the line, with exit code 2: in the
 // configuration file, and in the ROS camera_info file camera.intrinsics_file names (yaml-cpp's
 // Load() read its first document and dropped the second, focal length and all, silently).
@@ -192,6 +205,94 @@ TEST_F(DaemonHonest, ASecondYamlDocumentIsRefusedNamingTheFileAndLine) {
   EXPECT_NE(LastLine(err).find(camera_info + ": camera_info: line 8: a second YAML document"),
             std::string::npos)
       << err;
+}
+
+// Output that cannot be written is an error naming it: --print-config (and --version) to a
+// full device, clutterseg-segment's --times file in a missing directory or on a full device,
+// its summary to a full device.
+TEST_F(DaemonHonest, OutputToAFullDeviceOrAMissingDirectoryIsAnErrorNamingIt) {
+  ASSERT_TRUE(fs::exists("/dev/full")) << "no /dev/full";
+  const std::string daemon = CLUTTERSEG_DAEMON_EXE;
+  const std::string segment = CLUTTERSEG_SEGMENT_EXE;
+  std::string err;
+  EXPECT_EQ(Shell(daemon + " --print-config > /dev/full", dir_, &err), kExitFailure) << err;
+  EXPECT_NE(err.find("cannot write the configuration (--print-config) to standard output: No "
+                     "space left on device"),
+            std::string::npos)
+      << err;
+  EXPECT_EQ(Shell(daemon + " --version > /dev/full", dir_, &err), kExitFailure) << err;
+  EXPECT_NE(err.find("to standard output"), std::string::npos) << err;
+  // The same to a file still works.
+  const std::string printed = (dir_ / "config.yaml").string();
+  EXPECT_EQ(Shell(daemon + " --print-config > '" + printed + "'", dir_, &err), kExitOk) << err;
+  EXPECT_GT(fs::file_size(printed), 100u);
+
+  // clutterseg-segment on a PCD the synthesizer writes.
+  const fs::path pcds = dir_ / "pcds";
+  ASSERT_EQ(testutil::Run({CLUTTERSEG_SYNTH_EXE, "--out", pcds.string(), "--count", "1", "--seed",
+                           "3", "--width", "160", "--height", "120"},
+                          seconds(120), &err),
+            0)
+      << err;
+  const std::string pcd = (pcds / "scene_0000.pcd").string();
+  const std::string missing = (dir_ / "no_such_dir" / "times.jsonl").string();
+  err.clear();
+  EXPECT_EQ(testutil::Run({segment, pcd, (dir_ / "a.pcd").string(), "--times", missing},
+                          seconds(120), &err),
+            kExitFailure);
+  EXPECT_NE(err.find(missing + ": cannot open for appending: No such file or directory"),
+            std::string::npos)
+      << err;
+  err.clear();
+  EXPECT_EQ(testutil::Run({segment, pcd, (dir_ / "b.pcd").string(), "--times", "/dev/full"},
+                          seconds(120), &err),
+            kExitIncomplete);
+  EXPECT_NE(err.find("/dev/full: write failed: No space left on device"), std::string::npos) << err;
+  EXPECT_EQ(
+      Shell(segment + " '" + pcd + "' '" + (dir_ / "c.pcd").string() + "' > /dev/full", dir_, &err),
+      kExitIncomplete)
+      << err;
+  EXPECT_NE(err.find("cannot write the summary to standard output: No space left on device"),
+            std::string::npos)
+      << err;
+}
+
+// A directory of FRAME.PCD files (upper-case extension) is a PCD directory, for the daemon
+// (it was taken for a depth-PNG directory: "no depth PNGs in ...") and for clutterseg-segment
+// (it said "no .pcd or .png files").
+TEST_F(DaemonHonest, UpperCasePcdFilesAreReadAsPcd) {
+  std::string err;
+  const fs::path pcds = dir_ / "upper_pcds";
+  ASSERT_EQ(testutil::Run({CLUTTERSEG_SYNTH_EXE, "--out", pcds.string(), "--count", "2", "--seed",
+                           "3", "--width", "160", "--height", "120"},
+                          seconds(120), &err),
+            0)
+      << err;
+  const fs::path upper = dir_ / "UPPER";
+  fs::create_directories(upper);
+  fs::copy_file(pcds / "scene_0000.pcd", upper / "FRAME_0.PCD");
+  fs::copy_file(pcds / "scene_0001.pcd", upper / "FRAME_1.PCD");
+  const std::string log = (dir_ / "upper.lcmlog").string();
+  err.clear();
+  EXPECT_EQ(testutil::Run({CLUTTERSEG_DAEMON_EXE, "--source", upper.string(), "--speed", "max",
+                           "--lcm-url", "file://" + log + "?mode=w"},
+                          seconds(120), &err),
+            kExitOk)
+      << err;
+  int objects = 0;
+  for (const testutil::LogEvent& ev : testutil::ReadLcmLog(log)) {
+    objects += ev.channel == "CLUTTERSEG_OBJECTS";
+  }
+  EXPECT_EQ(objects, 2) << err;
+
+  err.clear();
+  const fs::path out = dir_ / "upper_out";
+  EXPECT_EQ(
+      testutil::Run({CLUTTERSEG_SEGMENT_EXE, upper.string(), out.string()}, seconds(120), &err),
+      kExitOk)
+      << err;
+  EXPECT_TRUE(fs::exists(out / "FRAME_0.pcd")) << err;
+  EXPECT_TRUE(fs::exists(out / "FRAME_1.pcd")) << err;
 }
 
 }  // namespace
