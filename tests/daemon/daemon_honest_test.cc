@@ -164,6 +164,47 @@ TEST_F(DaemonHonest, AFullDiskUnderTheLogIsCountedAsWhatReachedTheLog) {
               static_cast<long long>(failures));
 }
 
+// Overlay PNGs on a 128 KiB tmpfs: the first few fit, the rest do not. Every PNG left in the
+// directory is whole (they were left truncated, under their final names), no temporary file
+// is left behind, the final line counts exactly the files there as written, and the run ends
+// with exit code 5 naming the overlays not written.
+TEST_F(DaemonHonest, OverlaysOnAFullDiskLeaveOnlyWholePngsAndAreCounted) {
+  ASSERT_TRUE(have_recording_);
+  std::string why;
+  const std::string disk = SmallDisk("png_disk", "128k", &why);
+  if (disk.empty()) GTEST_SKIP() << why;
+  const std::string png_dir = disk + "/overlays";
+  std::string err;
+  const int rc = testutil::Run(
+      Args("file://" + (dir_ / "overlays.lcmlog").string() + "?mode=w", {"--png-dir", png_dir}),
+      seconds(120), &err);
+  EXPECT_EQ(rc, kExitIncomplete) << err;
+  EXPECT_NE(LastLine(err).find("overlay PNGs not written"), std::string::npos) << err;
+
+  int64_t whole = 0;
+  for (const fs::directory_entry& e : fs::directory_iterator(png_dir)) {
+    const std::string name = e.path().filename().string();
+    EXPECT_TRUE(std::regex_match(name, std::regex("frame_\\d{6}\\.png")))
+        << "left behind: " << name;
+    try {
+      const core::ColorImage image = io::ReadColorPng(e.path().string());
+      EXPECT_EQ(image.width, 160);
+      EXPECT_EQ(image.height, 120);
+      ++whole;
+    } catch (const std::exception& ex) {
+      ADD_FAILURE() << "a broken PNG: " << ex.what();
+    }
+  }
+  EXPECT_GT(whole, 0);
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(
+      err, m, std::regex("overlays (\\d+) written / (\\d+) dropped / (\\d+) failed")))
+      << err;
+  EXPECT_EQ(std::stoll(m[1]), whole) << err;
+  EXPECT_GT(std::stoll(m[3]), 0) << err;
+  EXPECT_EQ(std::stoll(m[1]) + std::stoll(m[2]) + std::stoll(m[3]), 100) << err;
+}
+
 // Writes `text` to `path`.
 void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
