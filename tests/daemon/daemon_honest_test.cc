@@ -56,6 +56,11 @@ int64_t DoneCount(const std::string& err, const std::string& label) {
   return std::stoll(m[1]);
 }
 
+// Writes `text` to `path`.
+void WriteTextFile(const std::string& path, const std::string& text) {
+  std::ofstream(path) << text;
+}
+
 class DaemonHonest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -205,9 +210,6 @@ TEST_F(DaemonHonest, OverlaysOnAFullDiskLeaveOnlyWholePngsAndAreCounted) {
   EXPECT_EQ(std::stoll(m[1]) + std::stoll(m[2]) + std::stoll(m[3]), 100) << err;
 }
 
-// Writes `text` to `path`.
-void WriteText(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
 // Runs the shell command `command` (with a hang guard of 60 s); returns its exit code and its
 // standard error in *err. For redirections the test helpers do not offer (> /dev/full).
 int Shell(const std::string& command, const fs::path& scratch, std::string* err) {
@@ -227,7 +229,7 @@ int Shell(const std::string& command, const fs::path& scratch, std::string* err)
 TEST_F(DaemonHonest, ASecondYamlDocumentIsRefusedNamingTheFileAndLine) {
   ASSERT_TRUE(have_recording_);
   const std::string config = (dir_ / "two_documents.yaml").string();
-  WriteText(config, "speed: max\n---\nlcm:\n  url: memq://\n");
+  WriteTextFile(config, "speed: max\n---\nlcm:\n  url: memq://\n");
   std::string err;
   int rc = testutil::Run(Args("file:///dev/null?mode=w", {"--config", config}), seconds(60), &err);
   EXPECT_EQ(rc, kExitUsage) << err;
@@ -235,9 +237,9 @@ TEST_F(DaemonHonest, ASecondYamlDocumentIsRefusedNamingTheFileAndLine) {
 
   const std::string camera_info = (dir_ / "camera_info_two_documents.yaml").string();
   const std::string matrix = "camera_matrix:\n  rows: 3\n  cols: 3\n  data: [";
-  WriteText(camera_info, "image_width: 160\nimage_height: 120\n" + matrix +
-                             "142.5, 0, 79.5, 0, 142.5, 59.5, 0, 0, 1]\n---\n" + matrix +
-                             "285, 0, 79.5, 0, 285, 59.5, 0, 0, 1]\n");
+  WriteTextFile(camera_info, "image_width: 160\nimage_height: 120\n" + matrix +
+                                 "142.5, 0, 79.5, 0, 142.5, 59.5, 0, 0, 1]\n---\n" + matrix +
+                                 "285, 0, 79.5, 0, 285, 59.5, 0, 0, 1]\n");
   err.clear();
   rc = testutil::Run(Args("file:///dev/null?mode=w",
                           {"--set", "camera.intrinsics_file=" + camera_info, "--max-frames", "2"}),
@@ -246,6 +248,66 @@ TEST_F(DaemonHonest, ASecondYamlDocumentIsRefusedNamingTheFileAndLine) {
   EXPECT_NE(LastLine(err).find(camera_info + ": camera_info: line 8: a second YAML document"),
             std::string::npos)
       << err;
+}
+
+// Writes `frames` depth PNGs of a box on a table (160x120) into `dir`, in TUM RGB-D's unit
+// (1/5000 m) with `io::PngWriter`, and the directory's intrinsics JSON.
+void WriteTumDepthDirectory(const fs::path& dir, int frames) {
+  fs::create_directories(dir);
+  WriteTextFile(
+      (dir / "intrinsics.json").string(),
+      R"({"fx": 142.5, "fy": 142.5, "cx": 79.5, "cy": 59.5, "width": 160, "height": 120})");
+  core::DepthImage depth(160, 120, 0);
+  for (int v = 0; v < depth.height; ++v) {
+    for (int u = 0; u < depth.width; ++u) {
+      // A table rising towards the top of the image (0.9 m at the bottom, 1.5 m at the top)
+      // with a 10 cm box on it in the middle.
+      double z_m = 1.5 - 0.6 * v / (depth.height - 1);
+      if (u >= 60 && u < 100 && v >= 40 && v < 80) z_m -= 0.1;
+      depth.at(u, v) = static_cast<uint16_t>(z_m * 5000.0 + 0.5);  // TUM: 5000 units per metre
+    }
+  }
+  io::PngWriter png;
+  for (int i = 0; i < frames; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "depth_%03d.png", i);
+    png.WriteDepth((dir / name).string(), depth);
+  }
+}
+
+// Depth PNGs in another unit (TUM RGB-D, 1/5000 m) replayed as millimetres put every point out
+// of the depth range: the daemon published empty frames, exited 0 and said nothing. After 30
+// frames in a row without a valid point in range it now warns, naming the likely cause and
+// the keys; with camera.depth_scale_mm = 0.2 the same frames have depth and no warning comes.
+TEST_F(DaemonHonest, DepthInAnotherUnitIsNamedAfterThirtyFramesWithoutValidDepth) {
+  const fs::path tum = dir_ / "tum_depth";
+  WriteTumDepthDirectory(tum, 40);
+  const std::string log = (dir_ / "tum.lcmlog").string();
+  std::string err;
+  EXPECT_EQ(testutil::Run({CLUTTERSEG_DAEMON_EXE, "--source", tum.string(), "--speed", "max",
+                           "--lcm-url", "file://" + log + "?mode=w"},
+                          seconds(120), &err),
+            kExitOk)
+      << err;
+  const size_t warning = err.find("warn: 30 frames in a row (up to frame 29) had no valid depth");
+  ASSERT_NE(warning, std::string::npos) << err;
+  const std::string line = err.substr(warning, err.find('\n', warning) - warning);
+  for (const char* named : {"camera.depth_scale_mm", "0.2 for TUM", "segmenter.points.min_depth_m",
+                            "segmenter.points.max_depth_m", "0.3..3 m"}) {
+    EXPECT_NE(line.find(named), std::string::npos) << named << " not in: " << line;
+  }
+  EXPECT_EQ(err.find("had no valid depth", warning + line.size()), std::string::npos)
+      << "warned once";
+  std::printf("%s\n", line.c_str());
+
+  err.clear();
+  EXPECT_EQ(
+      testutil::Run({CLUTTERSEG_DAEMON_EXE, "--source", tum.string(), "--speed", "max", "--lcm-url",
+                     "file://" + log + "?mode=w", "--set", "camera.depth_scale_mm=0.2"},
+                    seconds(120), &err),
+      kExitOk)
+      << err;
+  EXPECT_EQ(err.find("had no valid depth"), std::string::npos) << err;
 }
 
 // Output that cannot be written is an error naming it: --print-config (and --version) to a
