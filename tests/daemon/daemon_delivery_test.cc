@@ -25,6 +25,7 @@
 #include "clutterseg/io/png_io.h"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "tests/daemon/daemon_cli.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 
@@ -57,10 +58,7 @@ class DaemonDelivery : public ::testing::Test {
   // The daemon replaying the recording in lockstep to `url`, with `extra` arguments.
   static std::vector<std::string> Args(const std::string& url,
                                        const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> argv = {
-        CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed", "max", "--lcm-url", url};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    return argv;
+    return testutil::ReplayArgs(CLUTTERSEG_DAEMON_EXE, recording_, url, extra);
   }
 
   static inline std::filesystem::path dir_;
@@ -68,14 +66,7 @@ class DaemonDelivery : public ::testing::Test {
   static inline bool have_recording_{false};
 };
 
-// The last non-empty line of `text`.
-std::string LastLine(const std::string& text) {
-  size_t end = text.find_last_not_of('\n');
-  if (end == std::string::npos) return {};
-  const size_t start = text.rfind('\n', end);
-  return text.substr(start == std::string::npos ? 0 : start + 1,
-                     end - (start == std::string::npos ? 0 : start + 1) + 1);
-}
+using testutil::LastLine;
 
 TEST_F(DaemonDelivery, ASecondWriterOfALogIsRefusedAndTheFirstLogStaysWhole) {
   const std::string log = Scratch("shared.lcmlog");

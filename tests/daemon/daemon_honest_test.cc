@@ -27,6 +27,7 @@
 #include "clutterseg/core/frame.h"
 #include "clutterseg/io/png_io.h"
 #include "clutterseg/status_t.hpp"
+#include "tests/daemon/daemon_cli.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 
@@ -36,14 +37,7 @@ namespace {
 namespace fs = std::filesystem;
 using std::chrono::seconds;
 
-// The last non-empty line of `text`.
-std::string LastLine(const std::string& text) {
-  const size_t end = text.find_last_not_of('\n');
-  if (end == std::string::npos) return {};
-  const size_t start = text.rfind('\n', end);
-  const size_t from = start == std::string::npos ? 0 : start + 1;
-  return text.substr(from, end - from + 1);
-}
+using testutil::LastLine;
 
 // The number before `label` in the daemon's "done: ..." line (e.g. "42 published"), -1 when
 // the line or the label is missing.
@@ -106,10 +100,7 @@ class DaemonHonest : public ::testing::Test {
   // The daemon replaying the recording in lockstep to `url`, with `extra` arguments.
   static std::vector<std::string> Args(const std::string& url,
                                        const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> argv = {
-        CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed", "max", "--lcm-url", url};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    return argv;
+    return testutil::ReplayArgs(CLUTTERSEG_DAEMON_EXE, recording_, url, extra);
   }
 
   static inline fs::path dir_;
