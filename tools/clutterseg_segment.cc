@@ -167,7 +167,7 @@ void WriteObjectsJson(const std::string& path, const std::string& source,
   WriteTextFile(path, JsonLine(j) + "\n");
 }
 
-bool IsPng(const fs::path& p) { return p.extension() == ".png" || p.extension() == ".PNG"; }
+bool IsPng(const fs::path& p) { return core::HasExtension(p.filename().string(), ".png"); }
 
 // Loads `in` into `cloud`, reusing its storage (a PCD after another allocates nothing).
 void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
@@ -301,7 +301,7 @@ int main(int argc, char** argv) {
     // A directory of PCDs is read as such; otherwise its depth PNGs (names containing
     // "depth") are the frames.
     for (const auto& e : fs::directory_iterator(opt.input, ec)) {
-      if (e.path().extension() == ".pcd") inputs.push_back(e.path());
+      if (core::HasExtension(e.path().filename().string(), ".pcd")) inputs.push_back(e.path());
     }
     if (inputs.empty()) {
       for (const auto& e : fs::directory_iterator(opt.input, ec)) {
@@ -315,7 +315,8 @@ int main(int argc, char** argv) {
       return core::NaturalLess(a.filename().string(), b.filename().string());
     });
     if (inputs.empty()) {
-      std::cerr << "clutterseg-segment: " << opt.input << ": no .pcd or .png files\n";
+      std::cerr << "clutterseg-segment: " << opt.input
+                << ": no .pcd files and no depth PNGs (*.png with 'depth' in the name)\n";
       return kExitSourceUnavailable;
     }
     for (const fs::path& p : inputs) {
@@ -537,9 +538,13 @@ int main(int argc, char** argv) {
                   {"wall_ms_per_frame", jobs.empty() ? 0.0 : 1000.0 * wall_s / jobs.size()},
                   {"threads", threads_used},
                   {"lanes", lanes}};
+  errno = 0;
   std::cout << JsonLine(j) << std::endl;
   const bool summary_written = static_cast<bool>(std::cout);
-  if (!summary_written) std::cerr << "clutterseg-segment: cannot write the summary to stdout\n";
+  if (!summary_written) {
+    std::cerr << "clutterseg-segment: cannot write the summary to standard output: "
+              << std::strerror(errno != 0 ? errno : EIO) << "\n";
+  }
   if (unreadable == static_cast<int>(jobs.size()) || all_empty) return kExitFailure;
   if (failures > 0 || times_failed || !summary_written) return kExitIncomplete;
   return kExitOk;

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/core/text_and_color.h"
 #include "clutterseg/drivers/replay/pcd_directory_source.h"
 #include "clutterseg/io/png_io.h"
 
@@ -26,7 +27,7 @@ std::vector<std::string> ListFiles(const fs::path& dir, const std::string& ext) 
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return out;
   for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-    if (e.is_regular_file() && Lower(e.path().extension().string()) == ext) {
+    if (e.is_regular_file() && core::HasExtension(e.path().filename().string(), ext)) {
       out.push_back(e.path().filename().string());
     }
   }

@@ -182,10 +182,9 @@ void PcdDirectorySource::Open() {
   if (fs::is_directory(root, ec)) {
     for (const fs::directory_entry& e : fs::directory_iterator(root, ec)) {
       if (!e.is_regular_file()) continue;
-      std::string ext = e.path().extension().string();
-      std::transform(ext.begin(), ext.end(), ext.begin(),
-                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-      if (ext == ".pcd") files_.push_back(e.path().string());
+      if (core::HasExtension(e.path().filename().string(), ".pcd")) {
+        files_.push_back(e.path().string());
+      }
     }
     if (ec) {
       throw std::runtime_error("PCD directory source: cannot list '" + options_.path +

@@ -10,6 +10,10 @@ namespace clutterseg::core {
 /// before learn10; equal numbers with fewer leading zeros come first. A strict weak order.
 bool NaturalLess(std::string_view a, std::string_view b);
 
+/// True when the file name `name` ends in `extension` (e.g. ".pcd"), ignoring ASCII case:
+/// FRAME.PCD and frame.Pcd are PCD files too.
+bool HasExtension(std::string_view name, std::string_view extension);
+
 /// HSV to 8-bit RGB; hue in turns (wraps, 0 = red), saturation and value in 0..1.
 Rgb8 HsvToRgb(double hue, double saturation, double value);
 

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <cstdio>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -86,6 +87,7 @@ struct Daemon::Impl {
   std::atomic<uint64_t> reloads{0};
   std::atomic<int> last_num_objects{0};
   std::atomic<uint64_t> frames_capped{0};  // frames that reached a segmenter cap
+  uint64_t no_depth_streak{0};  // (ordered completion) frames in a row without a point in range
 
   mutable std::mutex error_mutex;
   bool failed{false};
@@ -194,6 +196,40 @@ struct Daemon::Impl {
                              " so far reached a segmenter cap, the last with " + what);
   }
 
+  // Frames in a row without one valid point in the depth range before the warning: one second
+  // of a 30 Hz camera, and as many frames of a replay at any speed.
+  static constexpr uint64_t kNoDepthWarnFrames = 30;
+
+  // Warns once per run of frames without a valid point in the depth range (a depth PNG
+  // directory in another unit, e.g. TUM RGB-D's 1/5000 m read as millimetres, puts every
+  // point out of range: the frames are published, empty); notes when depth comes back.
+  void NoteDepthInRange(uint32_t valid_points, uint64_t sequence) {
+    if (valid_points > 0) {
+      if (no_depth_streak >= kNoDepthWarnFrames) {
+        Log(LogLevel::kInfo, "frame " + std::to_string(sequence) +
+                                 " has valid depth in range again, after " +
+                                 std::to_string(no_depth_streak) + " frames without");
+      }
+      no_depth_streak = 0;
+      return;
+    }
+    if (++no_depth_streak != kNoDepthWarnFrames) return;
+    const pipeline::PointsParams& range = config.segmenter.points;
+    char limits[64];
+    std::snprintf(limits, sizeof(limits), "%g..%g m", range.min_depth_m, range.max_depth_m);
+    char scale[32];
+    std::snprintf(scale, sizeof(scale), "%g", config.camera.depth_scale_mm);
+    Log(LogLevel::kWarn,
+        std::to_string(kNoDepthWarnFrames) + " frames in a row (up to frame " +
+            std::to_string(sequence) + ") had no valid depth point within " + limits +
+            ", so their objects_t are empty. Likely the depth unit: depth PNGs are read as "
+            "millimetres unless camera.depth_scale_mm says otherwise (0.2 for TUM RGB-D's "
+            "1/5000 m); camera.depth_scale_mm = " +
+            scale +
+            ". Otherwise check the range keys segmenter.points.min_depth_m and "
+            "segmenter.points.max_depth_m, and the camera's view");
+  }
+
   void Complete(const pipeline::FrameRunner::Lane& lane, uint64_t, const std::string* error) {
     LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
     if (error != nullptr) {
@@ -224,6 +260,7 @@ struct Daemon::Impl {
       }
     }
     last_num_objects.store(out.messages.objects.num_objects);
+    NoteDepthInRange(lane.result->num_valid_points, out.sequence);
     if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
     publisher.Offer(&out.messages);
     if (overlay) overlay->Offer(&out.overlay);

@@ -7,6 +7,8 @@
 #include <lcm/lcm-cpp.hpp>
 #include <lcm/lcm.h>
 
+#include "clutterseg/daemon/lcm_log_file.h"
+
 namespace clutterseg::daemon {
 
 // One SubscribeRaw() registration: LCM's C API calls OnMessage with it as user data.
@@ -36,6 +38,14 @@ std::string MulticastRouteHelp() {
 }
 
 LcmBus::LcmBus(const std::string& url) : url_(url) {
+  if (FileLogUrl log; ParseFileLogUrl(url, &log)) {
+    try {
+      log_file_ = std::make_unique<LcmLogFile>(log);
+    } catch (const std::exception& e) {
+      throw LcmUnavailableError("cannot open LCM URL '" + url + "': " + e.what());
+    }
+    return;
+  }
   lcm_ = std::make_unique<lcm::LCM>(url);
   if (!lcm_->good()) {
     lcm_.reset();
@@ -68,6 +78,10 @@ LcmBus::~LcmBus() {
 
 void LcmBus::SubscribeRaw(const std::string& channel, RawHandler handler) {
   if (!handler) throw std::invalid_argument("LcmBus::SubscribeRaw: empty handler for " + channel);
+  if (!lcm_) {
+    throw std::runtime_error("cannot subscribe to LCM channel '" + channel + "' on '" + url_ +
+                             "': this process writes that log");
+  }
   auto s = std::make_unique<Subscription>();
   s->bus = this;
   s->handler = std::move(handler);
@@ -80,6 +94,7 @@ void LcmBus::SubscribeRaw(const std::string& channel, RawHandler handler) {
 }
 
 int LcmBus::Handle(int timeout_ms) {
+  if (!lcm_) return -1;  // a log this process writes: nothing to receive
   const int rc = lcm_->handleTimeout(timeout_ms < 0 ? 0 : timeout_ms);
   if (handler_error_) {
     std::exception_ptr error = std::exchange(handler_error_, nullptr);
@@ -89,10 +104,10 @@ int LcmBus::Handle(int timeout_ms) {
 }
 
 bool LcmBus::Publish(const std::string& channel, const void* data, size_t size) {
-  if (size > static_cast<size_t>(INT32_MAX) ||
-      lcm_->publish(channel, data, static_cast<unsigned int>(size)) != 0) {
-    return CountFailure();
-  }
+  if (size > static_cast<size_t>(INT32_MAX)) return CountFailure();
+  const bool ok = log_file_ ? log_file_->Write(channel, data, size)
+                            : lcm_->publish(channel, data, static_cast<unsigned int>(size)) == 0;
+  if (!ok) return CountFailure();
   published_.fetch_add(1, std::memory_order_relaxed);
   return true;
 }

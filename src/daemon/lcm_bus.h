@@ -19,6 +19,8 @@ class LCM;
 
 namespace clutterseg::daemon {
 
+class LcmLogFile;
+
 /// The LCM URL could not be opened (most often: udpm:// without a multicast route). The
 /// message says how to fix it.
 class LcmUnavailableError : public std::runtime_error {
@@ -32,6 +34,11 @@ std::string MulticastRouteHelp();
 /// Owns one lcm::LCM instance and publishes on it, counting failures instead of ignoring
 /// them (publish() returning -1, e.g. tcpq:// without a hub, or an encoding error). Also
 /// receives: Subscribe() registers handlers that Handle() (or lcm()->handle*()) dispatches.
+///
+/// A file:// URL that writes a log (?mode=w or ?mode=a) is not opened through LCM: the bus
+/// writes the log itself (LcmLogFile), so that a message counts as published only once it is
+/// in the file, and one the file system refuses (a full disk) counts as a failure. Such a bus
+/// publishes only: it has no lcm::LCM instance, Subscribe() throws and Handle() returns -1.
 ///
 /// Subscribe() goes through LCM's C API with a plain function callback. LCM's C++
 /// member-function subscriptions (lcm::LCM::subscribe(channel, &Class::Method, object)) are
@@ -47,7 +54,8 @@ class LcmBus {
   LcmBus& operator=(const LcmBus&) = delete;
 
   /// Opens `url` ("" = LCM's default, udpm://239.255.76.67:7667?ttl=0).
-  /// @throws LcmUnavailableError naming the URL, with the multicast route fix for udpm.
+  /// @throws LcmUnavailableError naming the URL, with the multicast route fix for udpm, or the
+  /// log file and what is wrong with it (LcmLogFile) for a file:// log.
   explicit LcmBus(const std::string& url);
   ~LcmBus();
 
@@ -112,8 +120,11 @@ class LcmBus {
   /// Received messages that Subscribe() could not decode as the subscribed type.
   uint64_t decode_failures() const { return decode_failures_.load(std::memory_order_relaxed); }
   const std::string& url() const { return url_; }
-  /// The underlying instance, e.g. to handle messages on the same memq:// bus in tests.
+  /// The underlying instance, e.g. to handle messages on the same memq:// bus in tests;
+  /// nullptr for a file:// log the bus writes itself.
   lcm::LCM* lcm() { return lcm_.get(); }
+  /// The file:// log the bus writes, nullptr for any other URL.
+  const LcmLogFile* log_file() const { return log_file_.get(); }
 
  private:
   struct Subscription;
@@ -122,6 +133,7 @@ class LcmBus {
 
   std::string url_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<LcmLogFile> log_file_;  // instead of lcm_ for a file:// log
   std::vector<std::unique_ptr<Subscription>> subscriptions_;
   std::exception_ptr handler_error_;  // first exception a handler threw, for Handle()
   std::vector<uint8_t> buffer_;

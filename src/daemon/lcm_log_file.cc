@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
@@ -11,12 +12,19 @@
 #include <sys/file.h>
 #include <sys/stat.h>
 #include <sys/sysmacros.h>
+#include <sys/uio.h>
 
 namespace clutterseg::daemon {
 namespace {
 
 constexpr uint32_t kSync = 0xEDA1DA01u;
 constexpr size_t kHeader = 4 + 8 + 8 + 4 + 4;
+
+void PutBe(uint64_t value, int bytes, unsigned char* out) {
+  for (int i = 0; i < bytes; ++i) {
+    out[i] = static_cast<unsigned char>(value >> (8 * (bytes - 1 - i)));
+  }
+}
 
 uint32_t Be32(const unsigned char* p) {
   return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
@@ -82,7 +90,7 @@ bool ParseFileLogUrl(const std::string& url, FileLogUrl* log) {
   return true;
 }
 
-LcmLogFileGuard::LcmLogFileGuard(const FileLogUrl& log) : log_(log) {
+LcmLogFile::LcmLogFile(const FileLogUrl& log) : log_(log) {
   // O_NONBLOCK: a FIFO in its place must not block the open; it is refused just below.
   fd_ = open(log.path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NONBLOCK, 0644);
   if (fd_ < 0) {
@@ -95,56 +103,124 @@ LcmLogFileGuard::LcmLogFileGuard(const FileLogUrl& log) : log_(log) {
     discard_ = true;  // /dev/null: the messages are meant to go nowhere
     return;
   }
-  if (!stat_ok || !S_ISREG(st.st_mode)) {
+  const auto refuse = [this](const std::string& message) {
     close(fd_);
     fd_ = -1;
-    throw std::runtime_error("LCM log " + log.path +
-                             " is not a regular file (a FIFO, device or directory): the daemon "
-                             "writes logs to regular files (or /dev/null) only, so that it can "
-                             "verify them");
+    throw std::runtime_error("LCM log " + log_.path + message);
+  };
+  if (!stat_ok || !S_ISREG(st.st_mode)) {
+    refuse(
+        " is not a regular file (a FIFO, device or directory): the daemon writes logs to "
+        "regular files (or /dev/null) only, so that it can verify them");
   }
   if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
-    close(fd_);
-    fd_ = -1;
-    throw std::runtime_error(
-        "LCM log " + log.path +
-        (err == EWOULDBLOCK ? ": another process is writing it (two writers would garble it); "
-                              "give each daemon its own log"
-                            : std::string(": cannot lock: ") + std::strerror(err)));
+    refuse(err == EWOULDBLOCK ? ": another process is writing it (two writers would garble it); "
+                                "give each daemon its own log"
+                              : std::string(": cannot lock: ") + std::strerror(err));
   }
-  if (!log.append) return;  // LCM truncates it
+  if (!log.append) {
+    if (ftruncate(fd_, 0) != 0) refuse(std::string(": cannot empty it: ") + std::strerror(errno));
+    return;
+  }
   const LcmLogScan scan = ScanLcmLog(log.path);
   events_before_ = scan.events;
+  next_event_number_ = static_cast<int64_t>(scan.events);
+  end_ = scan.parsed_bytes;
   if (!scan.complete && scan.parsed_bytes < scan.file_bytes) {
     // A torn last event (the previous writer died mid-event): LCM's readers would stop there
     // and never see what this run appends.
     if (ftruncate(fd_, static_cast<off_t>(scan.parsed_bytes)) != 0) {
-      throw std::runtime_error("LCM log " + log.path + ": " + scan.problem +
-                               ", and it cannot be repaired: " + std::strerror(errno));
+      refuse(": " + scan.problem + ", and it cannot be repaired: " + std::strerror(errno));
     }
     repaired_bytes_ = scan.file_bytes - scan.parsed_bytes;
   }
 }
 
-LcmLogFileGuard::~LcmLogFileGuard() {
+LcmLogFile::~LcmLogFile() {
   if (fd_ >= 0) close(fd_);
 }
 
-std::string LcmLogFileGuard::Verify(uint64_t published) const {
+bool LcmLogFile::Write(const std::string& channel, const void* data, size_t size) {
+  if (discard_) {
+    written_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
+  unsigned char header[kHeader];
+  const auto wall_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                           std::chrono::system_clock::now().time_since_epoch())
+                           .count();
+  PutBe(kSync, 4, header);
+  PutBe(static_cast<uint64_t>(next_event_number_), 8, header + 4);
+  PutBe(static_cast<uint64_t>(wall_us), 8, header + 12);
+  PutBe(channel.size(), 4, header + 20);
+  PutBe(size, 4, header + 24);
+  iovec parts[3] = {{header, kHeader},
+                    {const_cast<char*>(channel.data()), channel.size()},
+                    {const_cast<void*>(data), size}};
+  const size_t total = kHeader + channel.size() + size;
+  size_t done = 0;
+  int err = 0;
+  while (done < total) {
+    // The parts not written yet.
+    iovec rest[3];
+    int n = 0;
+    size_t skip = done;
+    for (const iovec& part : parts) {
+      if (skip >= part.iov_len) {
+        skip -= part.iov_len;
+        continue;
+      }
+      rest[n++] = {static_cast<char*>(part.iov_base) + skip, part.iov_len - skip};
+      skip = 0;
+    }
+    const ssize_t w = pwritev(fd_, rest, n, static_cast<off_t>(end_ + done));
+    if (w < 0 && errno == EINTR) continue;
+    if (w <= 0) {
+      err = w < 0 ? errno : ENOSPC;
+      break;
+    }
+    done += static_cast<size_t>(w);
+  }
+  if (err == 0) {
+    end_ += total;
+    ++next_event_number_;
+    written_.fetch_add(1, std::memory_order_relaxed);
+    return true;
+  }
+  // Whole events only: the part that fitted goes again (a full file system has room for
+  // less than one event; a later, smaller one may still fit).
+  last_error_ = std::strerror(err);
+  if (done > 0 && ftruncate(fd_, static_cast<off_t>(end_)) != 0) {
+    last_error_ +=
+        std::string(", and the partial event cannot be cut off: ") + std::strerror(errno);
+  }
+  failures_.fetch_add(1, std::memory_order_relaxed);
+  return false;
+}
+
+std::string LcmLogFile::Verify() const {
   if (discard_) return {};
+  const uint64_t written = written_.load();
+  const uint64_t failed = failures_.load();
+  std::string problem;
+  if (failed > 0) {
+    problem = "LCM log " + log_.path + ": " + std::to_string(failed) + " of the " +
+              std::to_string(written + failed) + " messages could not be written (" + last_error_ +
+              "); it holds the " + std::to_string(written) + " written";
+  }
   const LcmLogScan scan = ScanLcmLog(log_.path);
   const uint64_t ours = scan.events > events_before_ ? scan.events - events_before_ : 0;
+  std::string broken;
   if (!scan.complete) {
-    return "LCM log " + log_.path + " is cut short (is the disk full?): " + std::to_string(ours) +
-           " whole messages of the " + std::to_string(published) + " published, then " +
-           scan.problem;
+    broken = "LCM log " + log_.path + " is cut short: " + std::to_string(ours) +
+             " whole messages of the " + std::to_string(written) + " written, then " + scan.problem;
+  } else if (ours != written) {
+    broken = "LCM log " + log_.path + " holds " + std::to_string(ours) + " messages of this run, " +
+             std::to_string(written) + " were written (did another process change it?)";
   }
-  if (ours < published) {
-    return "LCM log " + log_.path + " holds " + std::to_string(ours) + " of the " +
-           std::to_string(published) + " messages published (is the disk full?)";
-  }
-  return {};
+  if (broken.empty()) return problem;
+  return problem.empty() ? broken : problem + "; " + broken;
 }
 
 }  // namespace clutterseg::daemon

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <atomic>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 
@@ -28,42 +30,66 @@ struct FileLogUrl {
 /// True (filling `log`) when `url` is a file:// URL that writes a log (mode=w or mode=a).
 bool ParseFileLogUrl(const std::string& url, FileLogUrl* log);
 
-/// The daemon's hold on the log a file:// URL writes: taken before LCM opens the file, it
-/// (1) refuses a log another process is writing (an exclusive flock on the file; a second
-/// daemon would garble it), and (2) for ?mode=a, cuts a torn event off the end of an
-/// existing log (a run that was killed mid-event), so that the new events stay readable: LCM
-/// readers stop at the first bad event. After the run, Verify() checks that the file holds
-/// every event the transport accepted.
+/// The log a file:// URL writes, written by the daemon itself in LCM's format (LCM's own
+/// file provider buffers its writes and accepts messages it later cannot write: on a full disk
+/// it reported every message published while the log held less than half of them).
 ///
-/// Thread-safety: one owner thread.
-class LcmLogFileGuard {
+/// At open it (1) refuses a log another process is writing (an exclusive flock on the file; a
+/// second daemon would garble it), and (2) for ?mode=a, cuts a torn event off the end of an
+/// existing log (a run that was killed mid-event), so that the new events stay readable: LCM
+/// readers stop at the first bad event; ?mode=w empties the file. Each Write() puts one whole
+/// event into the file with one unbuffered write, or, when the file system refuses part of it
+/// (full, over quota, I/O error), cuts the part off again and returns false: the file holds
+/// whole events only, and exactly those Write() accepted.
+///
+/// Thread-safety: one owner thread; Write from one thread at a time; the counters from any
+/// thread.
+class LcmLogFile {
  public:
-  LcmLogFileGuard(const LcmLogFileGuard&) = delete;
-  LcmLogFileGuard& operator=(const LcmLogFileGuard&) = delete;
+  LcmLogFile(const LcmLogFile&) = delete;
+  LcmLogFile& operator=(const LcmLogFile&) = delete;
 
   /// /dev/null is accepted as a log that discards every message (nothing to verify); any
   /// other file that is not a regular file (a FIFO, /dev/full, a directory) is refused.
   /// @throws std::runtime_error naming the file when it is not a regular file, is locked by
-  /// another process or cannot be opened or repaired.
-  explicit LcmLogFileGuard(const FileLogUrl& log);
-  ~LcmLogFileGuard();
+  /// another process or cannot be opened, emptied or repaired.
+  explicit LcmLogFile(const FileLogUrl& log);
+  ~LcmLogFile();
 
+  /// Appends one event (`channel`, `size` bytes of `data`, stamped with the wall clock in
+  /// microseconds, as LCM stamps it). Returns false, leaving the file as it was, when the file
+  /// system does not take all of it; last_error() then says why.
+  bool Write(const std::string& channel, const void* data, size_t size);
+
+  const std::string& path() const { return log_.path; }
   /// Bytes cut off a torn end at start-up (0 when the log was whole or new).
   uint64_t repaired_bytes() const { return repaired_bytes_; }
   /// Events found in an appended log before this run.
   uint64_t events_before() const { return events_before_; }
+  /// Events this run wrote.
+  uint64_t written() const { return written_.load(std::memory_order_relaxed); }
+  /// Events this run could not write.
+  uint64_t failures() const { return failures_.load(std::memory_order_relaxed); }
+  /// Why the last failed Write() failed ("" when none did). Thread-safety: the writing thread,
+  /// or after it stopped writing.
+  const std::string& last_error() const { return last_error_; }
 
-  /// After LCM closed the log: "" when it is whole and holds at least `published` events of
-  /// this run (every message the transport accepted), otherwise what is missing (e.g. the
-  /// disk filled up: LCM buffers its writes and accepts messages it later cannot write).
-  std::string Verify(uint64_t published) const;
+  /// Reads the file back: "" when it is whole and holds exactly the events this run wrote
+  /// after those it found, otherwise what is wrong; also names the events that could not be
+  /// written (e.g. the disk filled up) and why.
+  std::string Verify() const;
 
  private:
   FileLogUrl log_;
   int fd_{-1};
   uint64_t repaired_bytes_{0};
   uint64_t events_before_{0};
-  bool discard_{false};  // the log is /dev/null: nothing to lock or verify
+  uint64_t end_{0};  // bytes of whole events in the file
+  int64_t next_event_number_{0};
+  bool discard_{false};  // the log is /dev/null: nothing to lock, write or verify
+  std::atomic<uint64_t> written_{0};
+  std::atomic<uint64_t> failures_{0};
+  std::string last_error_;
 };
 
 }  // namespace clutterseg::daemon

@@ -8,6 +8,7 @@
 #include <signal.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -49,6 +50,17 @@ struct CommandLine {
   bool print_config{false};
   std::vector<std::string> sets;
 };
+
+// Flushes standard output and checks that everything printed reached it (a full device, a
+// closed pipe); logs the failure naming `what` and returns false otherwise.
+bool StdoutWritten(const std::string& what) {
+  errno = 0;
+  if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return true;
+  Log(LogLevel::kError,
+      "cannot write " + what + " to standard output: " +
+          (errno != 0 ? std::string(std::strerror(errno)) : std::string("the write failed")));
+  return false;
+}
 
 // The configuration: file (or defaults), then command-line options, then --set overrides.
 // @throws ConfigError.
@@ -144,7 +156,8 @@ int Run(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);
-    return code == 0 ? kExitOk : kExitUsage;
+    if (code == 0) return StdoutWritten("the --help or --version text") ? kExitOk : kExitFailure;
+    return kExitUsage;
   }
 
   DaemonConfig cfg;
@@ -156,7 +169,7 @@ int Run(int argc, char** argv) {
   }
   if (cl.print_config) {
     std::fputs(ConfigToYaml(cfg).c_str(), stdout);
-    return kExitOk;
+    return StdoutWritten("the configuration (--print-config)") ? kExitOk : kExitFailure;
   }
   SetLogLevel(cfg.log_level);
   // Before the threads that allocate (LCM, capture, lanes) start.
@@ -170,22 +183,7 @@ int Run(int argc, char** argv) {
                               (cfg.lcm.url.empty() ? " (from LCM_DEFAULT_URL)" : "") + ": " + why);
     return kExitUsage;
   }
-  // A log this daemon writes is locked (and a torn end repaired) before LCM opens it.
-  std::unique_ptr<LcmLogFileGuard> log_guard;
-  if (FileLogUrl log; ParseFileLogUrl(lcm_url, &log)) {
-    try {
-      log_guard = std::make_unique<LcmLogFileGuard>(log);
-    } catch (const std::exception& e) {
-      Log(LogLevel::kError, "cannot open LCM URL '" + lcm_url + "': " + e.what());
-      return kExitLcmUnavailable;
-    }
-    if (log_guard->repaired_bytes() > 0) {
-      Log(LogLevel::kWarn, "LCM log " + log.path + ": cut a torn last event (" +
-                               std::to_string(log_guard->repaired_bytes()) +
-                               " bytes) left by an earlier run; appending after event " +
-                               std::to_string(log_guard->events_before()));
-    }
-  }
+  // A file:// log is written by the bus itself: locked, emptied or (?mode=a) its torn end cut.
   std::unique_ptr<LcmBus> bus;
   signals->Step("opening LCM URL '" + lcm_url + "'", kExitLcmUnavailable);
   try {
@@ -193,6 +191,12 @@ int Run(int argc, char** argv) {
   } catch (const LcmUnavailableError& e) {
     Log(LogLevel::kError, e.what());
     return kExitLcmUnavailable;
+  }
+  if (const LcmLogFile* log = bus->log_file(); log != nullptr && log->repaired_bytes() > 0) {
+    Log(LogLevel::kWarn, "LCM log " + log->path() + ": cut a torn last event (" +
+                             std::to_string(log->repaired_bytes()) +
+                             " bytes) left by an earlier run; appending after event " +
+                             std::to_string(log->events_before()));
   }
 
   // On a shared bus, listen for another daemon of the same camera while the source opens.
@@ -275,12 +279,11 @@ int Run(int argc, char** argv) {
     Log(LogLevel::kInfo,
         Summary(stats, daemon->run_latency()) + (code == kExitOk ? "" : "; error: " + error));
   }
-  // Close LCM (a file:// log is flushed and complete) before the OpenNI2 shutdown, which takes
-  // about half a second.
-  const uint64_t messages_published = bus->published();
+  // Close LCM before the OpenNI2 shutdown, which takes about half a second. A file:// log holds
+  // every event once written (unbuffered): read back here, it must hold exactly those.
+  const std::string log_problem = bus->log_file() != nullptr ? bus->log_file()->Verify() : "";
   instances.reset();  // it handles messages on the bus
   bus.reset();
-  const std::string log_problem = log_guard ? log_guard->Verify(messages_published) : "";
   ShutdownSourceDrivers();
   if (code == kExitOk && stats.source.all_empty()) {
     Log(LogLevel::kError, "every one of the " + std::to_string(stats.source.frames_delivered) +

@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "clutterseg/config/camera_info.h"
+#include "clutterseg/core/text_and_color.h"
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/io/png_io.h"
@@ -31,7 +32,7 @@ bool EndsWith(const std::string& s, const std::string& suffix) {
 bool HasPcdFiles(const std::filesystem::path& dir) {
   std::error_code ec;
   for (const auto& entry : std::filesystem::directory_iterator(dir, ec)) {
-    if (entry.path().extension() == ".pcd") return true;
+    if (core::HasExtension(entry.path().filename().string(), ".pcd")) return true;
   }
   return false;
 }

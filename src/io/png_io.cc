@@ -2,8 +2,10 @@
 
 #include <libdeflate.h>
 #include <png.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <cmath>
 #include <csetjmp>
@@ -19,6 +21,7 @@
 #include <vector>
 
 #include <nlohmann/json.hpp>
+#include <sys/stat.h>
 
 #include "clutterseg/core/assert.h"
 
@@ -463,14 +466,30 @@ void PngWriter::Finish(const std::string& path, int width, int height, int bit_d
   AppendChunk("IDAT", stream_.data(), stream_size, &file_);
   AppendChunk("IEND", nullptr, 0, &file_);
 
-  FilePtr f(std::fopen(path.c_str(), "wb"));
+  // A regular (or new) file is written under a temporary name beside it and renamed into place
+  // once whole, so that a reader never finds a truncated PNG under `path` (a full disk leaves
+  // nothing); a device such as /dev/null or /dev/full is written directly.
+  struct stat st {};
+  const bool direct = stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode);
+  static std::atomic<uint64_t> temp_counter{0};
+  const std::string target = direct ? path
+                                    : path + ".tmp." + std::to_string(getpid()) + "." +
+                                          std::to_string(temp_counter.fetch_add(1));
+  FilePtr f(std::fopen(target.c_str(), direct ? "wb" : "wbx"));  // x: never an existing file
   if (f == nullptr) Fail(path, std::string("cannot open for writing: ") + std::strerror(errno));
   errno = 0;
   const bool written = std::fwrite(file_.data(), 1, file_.size(), f.get()) == file_.size();
   std::FILE* raw = f.release();
   const bool flushed = written && std::ferror(raw) == 0;
   if (std::fclose(raw) != 0 || !flushed) {
-    Fail(path, std::string("write failed: ") + std::strerror(errno != 0 ? errno : EIO));
+    const int err = errno != 0 ? errno : EIO;
+    if (!direct) unlink(target.c_str());
+    Fail(path, std::string("write failed: ") + std::strerror(err));
+  }
+  if (!direct && rename(target.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    unlink(target.c_str());
+    Fail(path, std::string("cannot rename the written file into place: ") + std::strerror(err));
   }
 }
 

@@ -36,6 +36,10 @@ core::ColorImage ReadColorPng(const std::string& path, const core::FrameLimits& 
 /// 4.5 ms and 390 kB for a 640x480 frame on the 2-core reference machine, against 17 ms and
 /// 410 kB for zlib's level 1). Makes a PngWriter for the one call: use a PngWriter to write
 /// many.
+/// A regular file is written under a temporary name beside `path` (`path`.tmp.PID.N) and
+/// renamed to `path` once whole, so `path` is never a truncated PNG; on failure the temporary
+/// file is removed and an existing `path` is left as it was. A device (/dev/null, /dev/full)
+/// is written directly.
 /// @throws std::runtime_error naming the file when the image exceeds `limits` or on I/O
 /// failure (every write and the close are checked: a full disk is an error).
 void WriteColorPng(const std::string& path, const core::ColorImage& image,

@@ -25,6 +25,7 @@
 #include "clutterseg/io/png_io.h"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "tests/daemon/daemon_cli.h"
 #include "tests/daemon/daemon_test_util.h"
 #include "tests/testing/test_data.h"
 
@@ -57,10 +58,7 @@ class DaemonDelivery : public ::testing::Test {
   // The daemon replaying the recording in lockstep to `url`, with `extra` arguments.
   static std::vector<std::string> Args(const std::string& url,
                                        const std::vector<std::string>& extra = {}) {
-    std::vector<std::string> argv = {
-        CLUTTERSEG_DAEMON_EXE, "--source", recording_, "--speed", "max", "--lcm-url", url};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    return argv;
+    return testutil::ReplayArgs(CLUTTERSEG_DAEMON_EXE, recording_, url, extra);
   }
 
   static inline std::filesystem::path dir_;
@@ -68,14 +66,7 @@ class DaemonDelivery : public ::testing::Test {
   static inline bool have_recording_{false};
 };
 
-// The last non-empty line of `text`.
-std::string LastLine(const std::string& text) {
-  size_t end = text.find_last_not_of('\n');
-  if (end == std::string::npos) return {};
-  const size_t start = text.rfind('\n', end);
-  return text.substr(start == std::string::npos ? 0 : start + 1,
-                     end - (start == std::string::npos ? 0 : start + 1) + 1);
-}
+using testutil::LastLine;
 
 TEST_F(DaemonDelivery, ASecondWriterOfALogIsRefusedAndTheFirstLogStaysWhole) {
   const std::string log = Scratch("shared.lcmlog");
@@ -145,9 +136,9 @@ TEST_F(DaemonDelivery, ATornLogEndIsCutBeforeAppending) {
   EXPECT_EQ(objects, 2u * 6u) << "six frames from each run";
 }
 
-// A small tmpfs that the run fills: LCM accepts the messages (it buffers its writes) and the
-// log ends torn, which the daemon finds after closing it; overlays that cannot be written are
-// counted. Both end the run with exit code 5 and say what is missing.
+// A small tmpfs that the run fills: the messages that do not fit are counted as failures and
+// the log keeps the whole events written; overlays that cannot be written are counted. Both
+// end the run with exit code 5 and say what is missing.
 TEST_F(DaemonDelivery, AFullDiskEndsWithExitFiveSayingWhatIsMissing) {
   const auto mount_point = dir_ / "small_disk";
   std::filesystem::create_directories(mount_point);
@@ -166,8 +157,10 @@ TEST_F(DaemonDelivery, AFullDiskEndsWithExitFiveSayingWhatIsMissing) {
   int rc = testutil::Run(Args("file://" + log + "?mode=w", {"--set", "lcm.publish_depth=true"}),
                          seconds(60), &err);
   EXPECT_EQ(rc, kExitIncomplete) << err;
-  EXPECT_NE(LastLine(err).find("incomplete: LCM log " + log + " is cut short"), std::string::npos)
+  EXPECT_NE(LastLine(err).find("LCM log " + log + ": "), std::string::npos) << err;
+  EXPECT_NE(LastLine(err).find("could not be written (No space left on device)"), std::string::npos)
       << err;
+  EXPECT_TRUE(testutil::ScanLcmLog(log).complete);
   std::filesystem::remove(log);
 
   // Overlays into the full disk, the log elsewhere.
