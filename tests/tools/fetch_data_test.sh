@@ -106,37 +106,35 @@ echo "$out" | grep -q "checksum mismatch: beta/p.png" || fail "--verify message:
 "$fetch" --manifest "$work/good.tsv" --sets "$sets" --dest "$dest" --verify beta > /dev/null ||
   fail "the re-fetched set does not verify"
 
+# A run that must fail: fetch_fails WHAT MANIFEST UPSTREAM DEST MESSAGE [SET...] runs the
+# script, requires a non-zero exit, MESSAGE in its output and nothing of alpha stored.
+fetch_fails() {
+  local what=$1 man=$2 upstream=$3 dest=$4 message=$5
+  shift 5
+  if out=$("$fetch" --manifest "$man" --sets "$sets" --upstream "$upstream" --dest "$dest" \
+    "$@" 2>&1); then
+    fail "$what must fail"
+  fi
+  echo "$out" | grep -qF -- "$message" || fail "$what: expected '$message' in: $out"
+  no_leftovers "$dest" alpha
+}
+
 # 4. A wrong checksum: the manifest pins the commit whose one.pcd changed.
 manifest "$work/mismatch.tsv" "$c2"
-dest="$work/data-mismatch"
-if out=$("$fetch" --manifest "$work/mismatch.tsv" --sets "$sets" --upstream "file://$up" \
-  --dest "$dest" 2>&1); then
-  fail "a checksum mismatch must fail"
-fi
-echo "$out" | grep -q "checksum mismatch: alpha/one.pcd" || fail "mismatch message: $out"
-no_leftovers "$dest" alpha
-[ -f "$dest/beta/p.png" ] || fail "beta, which verified, must still be stored"
+fetch_fails "a checksum mismatch" "$work/mismatch.tsv" "file://$up" "$work/data-mismatch" \
+  "checksum mismatch: alpha/one.pcd"
+[ -f "$work/data-mismatch/beta/p.png" ] || fail "beta, which verified, must still be stored"
 
 # 5. A path that the pinned commit does not have.
 manifest "$work/missing.tsv" "$c1" \
   "$(printf 'alpha\tlab/frames\t%s\tscenes/a/absent.pcd\tabsent.pcd\t%s' "$c1" "$sum_one")"
-dest="$work/data-missing"
-if out=$("$fetch" --manifest "$work/missing.tsv" --sets "$sets" --upstream "file://$up" \
-  --dest "$dest" alpha 2>&1); then
-  fail "a missing path must fail"
-fi
-echo "$out" | grep -q "path 'scenes/a/absent.pcd' not found in lab/frames at $c1" ||
-  fail "missing-path message: $out"
-no_leftovers "$dest" alpha
+fetch_fails "a missing path" "$work/missing.tsv" "file://$up" "$work/data-missing" \
+  "path 'scenes/a/absent.pcd' not found in lab/frames at $c1" alpha
 
 # 6. An unreachable repository (a fetch that dies on the network) and an unknown set.
 dest="$work/data-unreachable"
-if out=$("$fetch" --manifest "$work/good.tsv" --sets "$sets" --upstream "file://$work/nowhere" \
-  --dest "$dest" 2>&1); then
-  fail "an unreachable upstream must fail"
-fi
-echo "$out" | grep -q "could not fetch lab/frames" || fail "unreachable message: $out"
-no_leftovers "$dest" alpha
+fetch_fails "an unreachable upstream" "$work/good.tsv" "file://$work/nowhere" "$dest" \
+  "could not fetch lab/frames"
 [ ! -e "$dest/beta" ] || fail "beta stored from an unreachable upstream"
 rc=0
 "$fetch" --manifest "$work/good.tsv" --sets "$sets" --dest "$dest" gamma > /dev/null 2>&1 || rc=$?
