@@ -88,6 +88,13 @@ struct Daemon::Impl {
   std::atomic<int> last_num_objects{0};
   std::atomic<uint64_t> frames_capped{0};  // frames that reached a segmenter cap
   uint64_t no_depth_streak{0};  // (ordered completion) frames in a row without a point in range
+  // How long the ordered completion waits for room in a full sink queue before the oldest
+  // frame there is dropped: none for a camera or a paced replay (a sink that falls behind
+  // costs frames, never capture time), kLockstepSinkWait for a recording replayed in lockstep
+  // (speed max), whose frames are all to be delivered; set by Start.
+  std::chrono::milliseconds sink_wait{0};
+  // Longer than any scheduling hiccup of a sink thread, shorter than the drain's 5 s.
+  static constexpr std::chrono::milliseconds kLockstepSinkWait{2000};
 
   mutable std::mutex error_mutex;
   bool failed{false};
@@ -262,8 +269,8 @@ struct Daemon::Impl {
     last_num_objects.store(out.messages.objects.num_objects);
     NoteDepthInRange(lane.result->num_valid_points, out.sequence);
     if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
-    publisher.Offer(&out.messages);
-    if (overlay) overlay->Offer(&out.overlay);
+    publisher.Offer(&out.messages, sink_wait);
+    if (overlay) overlay->Offer(&out.overlay, sink_wait);
     const uint64_t n = handed.fetch_add(1) + 1;
     if (max_frames > 0 && n >= static_cast<uint64_t>(max_frames)) {
       Log(LogLevel::kInfo, "published " + std::to_string(n) + " frames (max_frames); stopping");
@@ -375,6 +382,9 @@ void Daemon::Start() {
       [&d] { return d.Counters(d.source->report()); },
       [&d](const clutterseg::status_t& s) { d.publisher.OfferStatus(s); });
   d.started = true;
+  if (!d.source->IsLive() && d.config.capture.speed == Speed::kMax) {
+    d.sink_wait = Impl::kLockstepSinkWait;
+  }
   d.publisher.Start();
   d.status->Start();
   d.dispatch_thread = std::thread([&d] { d.DispatchLoop(); });

@@ -66,8 +66,9 @@ void LcmPublisher::Start() {
   thread_ = std::thread([this] { Loop(); });
 }
 
-void LcmPublisher::Offer(FrameMessages* frame) {
-  if (!queue_.Push(frame)) {  // after Finish: count it as handled so Flush does not wait
+void LcmPublisher::Offer(FrameMessages* frame, std::chrono::milliseconds wait_for_room) {
+  if (!queue_.Push(frame,
+                   wait_for_room)) {  // after Finish: count it as handled so Flush does not wait
     std::lock_guard<std::mutex> lock(flush_mutex_);
     ++handled_;
   }

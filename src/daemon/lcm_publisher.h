@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <functional>
@@ -76,8 +77,11 @@ class LcmPublisher {
   ~LcmPublisher();
 
   void Start();
-  /// Queues a frame (swapped in; `*frame` gets reusable buffers back). Never blocks.
-  void Offer(FrameMessages* frame);
+  /// Queues a frame (swapped in; `*frame` gets reusable buffers back). When the queue is
+  /// full it waits up to `wait_for_room` (none by default: it never blocks) before the
+  /// oldest waiting frame is dropped; see SinkQueue::Push.
+  void Offer(FrameMessages* frame,
+             std::chrono::milliseconds wait_for_room = std::chrono::milliseconds(0));
   /// Queues a status report; a newer one replaces one not yet sent.
   void OfferStatus(const clutterseg::status_t& status);
   /// Waits until every frame offered so far is published (or dropped).

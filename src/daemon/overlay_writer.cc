@@ -39,7 +39,9 @@ void OverlayWriter::Start() {
   thread_ = std::thread([this] { Loop(); });
 }
 
-void OverlayWriter::Offer(OverlayFrame* frame) { queue_.Push(frame); }
+void OverlayWriter::Offer(OverlayFrame* frame, std::chrono::milliseconds wait_for_room) {
+  queue_.Push(frame, wait_for_room);
+}
 
 void OverlayWriter::Finish() {
   queue_.Close();

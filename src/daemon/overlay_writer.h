@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <mutex>
 #include <string>
@@ -52,8 +53,11 @@ class OverlayWriter {
   /// Creates the directory and starts the thread. @throws std::runtime_error naming the
   /// directory when it cannot be created.
   void Start();
-  /// Queues a frame (swapped in; `*frame` gets reusable buffers back). Never blocks.
-  void Offer(OverlayFrame* frame);
+  /// Queues a frame (swapped in; `*frame` gets reusable buffers back). When the queue is
+  /// full it waits up to `wait_for_room` (none by default: it never blocks) before the
+  /// oldest waiting frame is dropped; see SinkQueue::Push.
+  void Offer(OverlayFrame* frame,
+             std::chrono::milliseconds wait_for_room = std::chrono::milliseconds(0));
   /// Writes what waits, then stops the thread.
   void Finish();
 

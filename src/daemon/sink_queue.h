@@ -10,9 +10,10 @@
 
 namespace clutterseg::daemon {
 
-/// The bounded queue in front of a sink that can block (a network peer, a disk): Push never
-/// waits; when `capacity` items are already waiting the oldest is dropped and counted, so a
-/// stalled sink costs frames, never the producer's time. Items move by swap: Push hands the
+/// The bounded queue in front of a sink that can block (a network peer, a disk): when
+/// `capacity` items are already waiting, Push waits at most its `wait_for_room` (none by
+/// default) and then drops the oldest and counts it, so a stalled sink costs frames, never
+/// more than that of the producer's time. Items move by swap: Push hands the
 /// caller back the buffers of a spent slot and Pop those of the consumer's previous item, so
 /// after the first rounds nothing is allocated.
 ///
@@ -26,12 +27,19 @@ class SinkQueue {
 
   explicit SinkQueue(size_t capacity) : slots_(capacity > 0 ? capacity : 1) {}
 
-  /// Swaps `*item` into the queue (dropping the oldest waiting item first when full); `*item`
-  /// is left with reusable buffers. Returns false (nothing queued) after Close().
-  bool Push(T* item) {
+  /// Swaps `*item` into the queue; `*item` is left with reusable buffers. When the queue is
+  /// full it first waits up to `wait_for_room` for the consumer to take one (a recording
+  /// replayed in lockstep, where a frame must not be lost to a sink that is merely slower
+  /// for a moment), then drops the oldest waiting item. Returns false (nothing queued) after
+  /// Close().
+  bool Push(T* item, std::chrono::milliseconds wait_for_room = std::chrono::milliseconds(0)) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      std::unique_lock<std::mutex> lock(mutex_);
       if (closed_) return false;
+      if (count_ == slots_.size() && wait_for_room.count() > 0) {
+        not_full_.wait_for(lock, wait_for_room, [&] { return count_ < slots_.size() || closed_; });
+        if (closed_) return false;
+      }
       if (count_ == slots_.size()) {
         head_ = (head_ + 1) % slots_.size();
         --count_;
@@ -56,6 +64,8 @@ class SinkQueue {
     swap(*out, slots_[head_]);
     head_ = (head_ + 1) % slots_.size();
     --count_;
+    lock.unlock();
+    not_full_.notify_one();
     return true;
   }
 
@@ -66,6 +76,7 @@ class SinkQueue {
       closed_ = true;
     }
     cv_.notify_all();
+    not_full_.notify_all();
   }
 
   bool closed() const {
@@ -94,7 +105,8 @@ class SinkQueue {
 
  private:
   mutable std::mutex mutex_;
-  std::condition_variable cv_;
+  std::condition_variable cv_;        // an item waits, or closed
+  std::condition_variable not_full_;  // a slot is free, or closed
   std::vector<T> slots_;
   size_t head_{0};
   size_t count_{0};

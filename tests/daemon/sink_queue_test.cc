@@ -29,6 +29,40 @@ TEST(SinkQueue, DropsTheOldestWhenFullAndCountsIt) {
   EXPECT_FALSE(dut.Pop(&out, milliseconds(1))) << "empty: times out";
 }
 
+// A lockstep replay's Push waits for the consumer instead of dropping; past its bound (a
+// stalled sink) it drops the oldest as a camera's does, and Close ends the wait.
+TEST(SinkQueue, APushWithAWaitTakesTheNextFreeSlotAndDropsOnlyPastItsBound) {
+  SinkQueue<std::vector<int>> dut(1);
+  std::vector<int> first{1};
+  ASSERT_TRUE(dut.Push(&first));
+  std::thread consumer([&] {
+    std::this_thread::sleep_for(milliseconds(50));
+    std::vector<int> out;
+    EXPECT_TRUE(dut.Pop(&out, milliseconds(1000)));
+    EXPECT_EQ(out, std::vector<int>{1});
+  });
+  std::vector<int> second{2};
+  EXPECT_TRUE(dut.Push(&second, milliseconds(60000)));
+  consumer.join();
+  EXPECT_EQ(dut.dropped(), 0u) << "the push waited for the consumer's Pop";
+  std::vector<int> third{3};
+  EXPECT_TRUE(dut.Push(&third, milliseconds(20)));  // nobody pops: dropped after 20 ms
+  EXPECT_EQ(dut.dropped(), 1u);
+  std::vector<int> out;
+  ASSERT_TRUE(dut.Pop(&out, milliseconds(0)));
+  EXPECT_EQ(out, std::vector<int>{3});
+
+  std::vector<int> fourth{4};
+  ASSERT_TRUE(dut.Push(&fourth));
+  std::thread closer([&] {
+    std::this_thread::sleep_for(milliseconds(50));
+    dut.Close();
+  });
+  std::vector<int> fifth{5};
+  EXPECT_FALSE(dut.Push(&fifth, milliseconds(60000))) << "closed while waiting: not queued";
+  closer.join();
+}
+
 TEST(SinkQueue, ItemsMoveBySwapSoBuffersAreReused) {
   SinkQueue<std::vector<int>> dut(1);
   std::vector<int> item(1000, 7);
