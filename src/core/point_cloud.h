@@ -30,6 +30,13 @@ struct PointCloud {
   size_t CountValid() const;
 };
 
+/// The intrinsics to segment `cloud` with: `intrinsics` scaled to the cloud's size
+/// (CameraIntrinsics::Scaled, the same sensor at another resolution) when the cloud is
+/// organized and its size differs, otherwise `intrinsics` unchanged (an unorganized cloud is
+/// segmented without them; they only draw it). What clutterseg-segment and the Python module
+/// pass to Segmenter::Process.
+CameraIntrinsics IntrinsicsForCloud(const CameraIntrinsics& intrinsics, const PointCloud& cloud);
+
 /// Back-projects a depth image (millimetres, 0 = invalid) into an organized cloud, reusing
 /// `cloud`'s storage. Colour is copied when `color` is non-null and has the depth's size.
 /// Depth values outside [min_m, max_m] become invalid. Rows are split over `pool` when it is
