@@ -250,55 +250,34 @@ void RequireFile(const std::string& path, const char* what) {
 
 // ---- the segmentation result ----------------------------------------------------------------
 
-/// What Segmenter.segment returns (a snapshot; the next call does not change it).
+/// What Segmenter.segment returns (a snapshot; the next call does not change it): the
+/// segmenter's result with its labels handed over to a numpy array.
 struct Result {
   py::array labels;
-  std::vector<pipeline::Object> objects;
-  std::vector<pipeline::Plane> planes;
   py::dict times;
-  int width{0}, height{0};
-  uint32_t num_supervoxels{0}, num_valid_points{0}, num_support_first_points{0};
-  bool supervoxels_capped{false}, objects_capped{false};
+  pipeline::SegmentationResult r;  // without its labels
 };
 
 // Takes what the segmenter produced out of `r` (the label buffer is handed over, no copy; the
-// segmenter grows a new one on its next call). Runs under the segmenter's mutex, without the
-// GIL: `r` is the segmenter's and the next frame overwrites it.
+// segmenter grows a new one on its next call; the rest is small and copied). Runs under the
+// segmenter's mutex, without the GIL: `r` is the segmenter's and the next frame overwrites it.
 pipeline::SegmentationResult TakeResult(pipeline::SegmentationResult* r) {
-  pipeline::SegmentationResult out;
-  out.width = r->width;
-  out.height = r->height;
-  out.labels.data = std::move(r->labels.data);
+  std::vector<uint32_t> labels = std::move(r->labels.data);
   r->labels.data.clear();
-  r->labels.width = r->labels.height = 0;
-  out.objects = r->objects;
-  out.planes = r->planes;
-  out.num_supervoxels = r->num_supervoxels;
-  out.num_valid_points = r->num_valid_points;
-  out.num_support_first_points = r->num_support_first_points;
-  out.supervoxels_capped = r->supervoxels_capped;
-  out.objects_capped = r->objects_capped;
-  out.times = r->times;
+  pipeline::SegmentationResult out = *r;
+  out.labels.data = std::move(labels);
   return out;
 }
 
-// The Python result of `r` (a taken result, owned by the caller); needs the GIL.
+// The Python result of a taken result; needs the GIL.
 Result ToResult(pipeline::SegmentationResult&& r, std::vector<py::ssize_t> label_shape) {
   Result out;
   out.labels = OwningArray(std::move(r.labels.data), std::move(label_shape));
-  out.objects = std::move(r.objects);
-  out.planes = std::move(r.planes);
   for (size_t i = 0; i < pipeline::kNumStages; ++i) {
     out.times[py::str(std::string(pipeline::StageTable()[i].name))] = r.times.ms[i];
   }
   out.times["total"] = r.times.total_ms;
-  out.width = r.width;
-  out.height = r.height;
-  out.num_supervoxels = r.num_supervoxels;
-  out.num_valid_points = r.num_valid_points;
-  out.num_support_first_points = r.num_support_first_points;
-  out.supervoxels_capped = r.supervoxels_capped;
-  out.objects_capped = r.objects_capped;
+  out.r = std::move(r);
   return out;
 }
 
@@ -762,25 +741,36 @@ PYBIND11_MODULE(_core, m) {
                     "numpy uint32 array of the input's leading shape ((H, W) or (N,)), the "
                     "input's point order: 0 = support plane / background / invalid point, "
                     "k >= 1 = objects[k - 1]")
-      .def_readonly("objects", &py_cs::Result::objects, "list of Object, by id")
-      .def_readonly("planes", &py_cs::Result::planes, "list of Plane")
+      .def_property_readonly(
+          "objects", [](const py_cs::Result& x) { return x.r.objects; }, "list of Object, by id")
+      .def_property_readonly(
+          "planes", [](const py_cs::Result& x) { return x.r.planes; }, "list of Plane")
       .def_readonly("times", &py_cs::Result::times,
                     "wall time of every stage and 'total', milliseconds (dict, stage order)")
-      .def_readonly("width", &py_cs::Result::width, "points per row (N when unorganized)")
-      .def_readonly("height", &py_cs::Result::height, "rows (1 when unorganized)")
-      .def_readonly("num_supervoxels", &py_cs::Result::num_supervoxels)
-      .def_readonly("num_valid_points", &py_cs::Result::num_valid_points,
-                    "finite points within the depth range (segmenter.points)")
-      .def_readonly("num_support_first_points", &py_cs::Result::num_support_first_points,
-                    "of those, the points the support-first step gave to a large plane")
-      .def_readonly("supervoxels_capped", &py_cs::Result::supervoxels_capped,
-                    "more seeds than supervoxel.max_supervoxels (some left out)")
-      .def_readonly("objects_capped", &py_cs::Result::objects_capped,
-                    "more objects than objects.max_objects (the smallest became background)")
-      .def("__repr__", [](const py_cs::Result& r) {
-        return "SegmentationResult(" + std::to_string(r.objects.size()) + " objects, " +
-               std::to_string(r.planes.size()) + " planes, " + std::to_string(r.width) + "x" +
-               std::to_string(r.height) + ")";
+      .def_property_readonly(
+          "width", [](const py_cs::Result& x) { return x.r.width; },
+          "points per row (N when unorganized)")
+      .def_property_readonly(
+          "height", [](const py_cs::Result& x) { return x.r.height; }, "rows (1 when unorganized)")
+      .def_property_readonly("num_supervoxels",
+                             [](const py_cs::Result& x) { return x.r.num_supervoxels; })
+      .def_property_readonly(
+          "num_valid_points", [](const py_cs::Result& x) { return x.r.num_valid_points; },
+          "finite points within the depth range (segmenter.points)")
+      .def_property_readonly(
+          "num_support_first_points",
+          [](const py_cs::Result& x) { return x.r.num_support_first_points; },
+          "of those, the points the support-first step gave to a large plane")
+      .def_property_readonly(
+          "supervoxels_capped", [](const py_cs::Result& x) { return x.r.supervoxels_capped; },
+          "more seeds than supervoxel.max_supervoxels (some left out)")
+      .def_property_readonly(
+          "objects_capped", [](const py_cs::Result& x) { return x.r.objects_capped; },
+          "more objects than objects.max_objects (the smallest became background)")
+      .def("__repr__", [](const py_cs::Result& x) {
+        return "SegmentationResult(" + std::to_string(x.r.objects.size()) + " objects, " +
+               std::to_string(x.r.planes.size()) + " planes, " + std::to_string(x.r.width) + "x" +
+               std::to_string(x.r.height) + ")";
       });
 
   py::class_<py_cs::PySegmenter>(
