@@ -248,6 +248,12 @@ void RequireFile(const std::string& path, const char* what) {
   }
 }
 
+// A Vec3f field of `t` as a numpy float64 (3,), for the bindings' properties.
+template <typename T, core::Vec3f T::*kField>
+py::array VecField(const T& t) {
+  return Vec3(t.*kField);
+}
+
 // ---- the segmentation result ----------------------------------------------------------------
 
 /// What Segmenter.segment returns (a snapshot; the next call does not change it): the
@@ -666,9 +672,8 @@ PYBIND11_MODULE(_core, m) {
                     "A plane n . p + d = 0 found in the frame (n unit, towards the camera), "
                     "camera frame, metres.")
       .def_readonly("id", &Plane::id, "plane id (Object.support_plane_id refers to it)")
-      .def_property_readonly(
-          "normal", [](const Plane& p) { return py_cs::Vec3(p.normal); },
-          "unit normal n, numpy float64 (3,)")
+      .def_property_readonly("normal", &py_cs::VecField<Plane, &Plane::normal>,
+                             "unit normal n, numpy float64 (3,)")
       .def_readonly("d", &Plane::d, "offset d of n . p + d = 0, metres")
       .def_readonly("num_points", &Plane::num_points, "points assigned to the plane")
       .def_readonly("area_m2", &Plane::area_m2, "area of the surface assigned to it, m^2")
@@ -684,18 +689,14 @@ PYBIND11_MODULE(_core, m) {
   py::class_<Object>(m, "Object", "One segmented object. Geometry in metres, camera frame.")
       .def_readonly("id", &Object::id, "the object's value in the label image (>= 1)")
       .def_readonly("num_points", &Object::num_points, "points of the object")
-      .def_property_readonly(
-          "centroid", [](const Object& o) { return py_cs::Vec3(o.centroid); },
-          "mean of its points, metres, numpy float64 (3,)")
-      .def_property_readonly(
-          "aabb_min", [](const Object& o) { return py_cs::Vec3(o.aabb_min); },
-          "axis-aligned box, lower corner, metres (3,)")
-      .def_property_readonly(
-          "aabb_max", [](const Object& o) { return py_cs::Vec3(o.aabb_max); },
-          "axis-aligned box, upper corner, metres (3,)")
-      .def_property_readonly(
-          "obb_center", [](const Object& o) { return py_cs::Vec3(o.obb_center); },
-          "oriented box centre, metres (3,)")
+      .def_property_readonly("centroid", &py_cs::VecField<Object, &Object::centroid>,
+                             "mean of its points, metres, numpy float64 (3,)")
+      .def_property_readonly("aabb_min", &py_cs::VecField<Object, &Object::aabb_min>,
+                             "axis-aligned box, lower corner, metres (3,)")
+      .def_property_readonly("aabb_max", &py_cs::VecField<Object, &Object::aabb_max>,
+                             "axis-aligned box, upper corner, metres (3,)")
+      .def_property_readonly("obb_center", &py_cs::VecField<Object, &Object::obb_center>,
+                             "oriented box centre, metres (3,)")
       .def_property_readonly(
           "obb_axes",
           [](const Object& o) {
@@ -710,9 +711,8 @@ PYBIND11_MODULE(_core, m) {
           },
           "oriented box axes, one unit vector per row, largest variance first, "
           "right-handed, numpy float64 (3, 3)")
-      .def_property_readonly(
-          "obb_extents", [](const Object& o) { return py_cs::Vec3(o.obb_extents); },
-          "full side lengths along obb_axes, metres (3,)")
+      .def_property_readonly("obb_extents", &py_cs::VecField<Object, &Object::obb_extents>,
+                             "full side lengths along obb_axes, metres (3,)")
       .def_readonly("support_plane_id", &Object::support_plane_id,
                     "id of the Plane it stands on, -1 when none")
       .def_property_readonly(
@@ -893,12 +893,12 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("num_segments", &FrameMetrics::num_segments)
       .def_readonly("scored", &FrameMetrics::scored, "the frame has ground-truth objects")
       .def_readonly("wov", &FrameMetrics::wov, "weighted overlap WOv")
-      .def_readonly("tp", &FrameMetrics::tp)
-      .def_readonly("fp", &FrameMetrics::fp)
-      .def_readonly("fn", &FrameMetrics::fn)
-      .def_readonly("precision", &FrameMetrics::precision)
-      .def_readonly("recall", &FrameMetrics::recall)
-      .def_readonly("f1", &FrameMetrics::f1)
+      .def_readonly("tp", &FrameMetrics::tp, "mean over ground-truth objects of |g ∩ s| / |g|")
+      .def_readonly("fp", &FrameMetrics::fp, "mean of |s \\ g| / |s|")
+      .def_readonly("fn", &FrameMetrics::fn, "mean of |g \\ s| / |g|")
+      .def_readonly("precision", &FrameMetrics::precision, "tp / (tp + fp)")
+      .def_readonly("recall", &FrameMetrics::recall, "tp / (tp + fn)")
+      .def_readonly("f1", &FrameMetrics::f1, "2 P R / (P + R)")
       .def_readonly("over_segmented", &FrameMetrics::over_segmented)
       .def_readonly("under_segmented", &FrameMetrics::under_segmented)
       .def_readonly("objects", &FrameMetrics::objects, "list of ObjectScore, by gt_id")
