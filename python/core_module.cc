@@ -807,7 +807,7 @@ PYBIND11_MODULE(_core, m) {
            "forward); NaN marks an invalid point. Any strides; a C-contiguous array is read "
            "with one copy into the pipeline's input cloud (reused between calls).\n"
            "colors: numpy uint8 (H, W, 3) or (N, 3), r, g, b, the same leading shape as "
-           "points; None: no colour (the colour terms then see black).\n"
+           "points; None: no colour (as a PCD without an rgb field).\n"
            "intrinsics: Intrinsics or dict (pixels) of the camera that took an organized "
            "cloud; None: fx = fy = 525, cx = 319.5, cy = 239.5 for 640x480, scaled to the "
            "cloud's size (as clutterseg-segment). Not used for an unorganized cloud.\n\n"
