@@ -2,7 +2,7 @@
 
 Environment (ctest sets all of them; by hand only PYTHONPATH is needed when the build is
 build/release):
-  PYTHONPATH               the build's package directory (<build>/lcmtypes/python)
+  PYTHONPATH               the build's package directory (<build>/python)
   CLUTTERSEG_TOOLS_DIR     clutterseg-segment, -eval, -synth (default <source>/build/release/tools)
   CLUTTERSEG_TEST_WORK     where generated clouds and tool outputs go (default: pytest's tmp)
   CLUTTERSEG_DATA          real data root (test_realdata.py only)
