@@ -45,6 +45,10 @@ endforeach()
 if(TARGET clutterseg_python_core)
   install(TARGETS clutterseg_python_core
           LIBRARY DESTINATION ${CLUTTERSEG_INSTALL_PYTHONDIR}/clutterseg COMPONENT python)
+  if(NOT TARGET clutterseg_lcmtypes_gen)  # without LCM the package is the module alone
+    install(FILES "${CLUTTERSEG_PYTHON_PACKAGE_DIR}/__init__.py"
+            DESTINATION ${CLUTTERSEG_INSTALL_PYTHONDIR}/clutterseg COMPONENT python)
+  endif()
 endif()
 
 install(PROGRAMS "${PROJECT_SOURCE_DIR}/tools/clutterseg-spy.sh" RENAME clutterseg-spy
@@ -151,7 +155,10 @@ if(TARGET clutterseg_python_core)
   set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)
   math(EXPR _py_next_minor "${Python3_VERSION_MINOR} + 1")
   set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
-      "clutterseg-lcmtypes (= ${PROJECT_VERSION}), python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${_py_next_minor}), python3-numpy")
+      "python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${_py_next_minor}), python3-numpy")
+  if(TARGET clutterseg_lcmtypes_gen)  # the package's __init__.py and pure-Python part
+    string(PREPEND CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "clutterseg-lcmtypes (= ${PROJECT_VERSION}), ")
+  endif()
   set(CPACK_DEBIAN_PYTHON_PACKAGE_SUGGESTS "python3-matplotlib")
   set(CPACK_DEBIAN_PYTHON_DESCRIPTION
       "clutterseg segmentation for Python\n The compiled module clutterseg._core of the Python package clutterseg:\n clutterseg.Segmenter segments numpy point clouds and depth images into\n objects and support planes (the same labels as clutterseg-segment);\n read_pcd, write_pcd and evaluate (the metrics of clutterseg-eval).")
