@@ -18,7 +18,8 @@ size_t PointCloud::CountValid() const {
   return n;
 }
 
-CameraIntrinsics IntrinsicsForCloud(const CameraIntrinsics& intrinsics, const PointCloud& cloud) {
+CameraIntrinsics IntrinsicsForCloud(const CameraIntrinsics& intrinsics,
+                                    const PointCloudView& cloud) {
   if (cloud.organized() && (intrinsics.width != cloud.width || intrinsics.height != cloud.height)) {
     return intrinsics.Scaled(cloud.width, cloud.height);
   }

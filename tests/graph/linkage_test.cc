@@ -375,7 +375,7 @@ StepScene MakeStep(double step_m, int touch_rows, bool organized, int width = 80
 int StepEdgeKept(const StepScene& s, const LinkageParams& params, bool camera_transform,
                  core::ThreadPool* pool = nullptr) {
   LinkageCues cues;
-  cues.cloud = &s.cloud;
+  cues.cloud = s.cloud;
   geometry::VoxelGridParams gp;
   gp.use_single_camera_transform = camera_transform;
   geometry::Voxelizer voxelizer(gp);
@@ -478,7 +478,7 @@ TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
   g.sv.width = 40;
   g.sv.height = 1;
   LinkageCues cues;
-  cues.cloud = &cloud;
+  cues.cloud = cloud;
   LinkageParams p;
   p.color_threshold = 0.f;
   LinkageResult r;
@@ -516,7 +516,7 @@ TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   g.sv.width = 20;
   g.sv.height = 1;
   LinkageCues cues;
-  cues.cloud = &cloud;
+  cues.cloud = cloud;
   const LinkageParams p;
   ASSERT_LT(p.concavity_tolerance_deg, 50.f);
   ASSERT_GT(p.color_concavity_tolerance_deg, 50.f);
@@ -543,7 +543,7 @@ TEST(Linkage, IdenticalForAnyThreadCount) {
   p.min_segment_supervoxels = 3;
   p.crease_min_angle_deg = 25.f;
   LinkageCues cues;  // depth jumps across the image border
-  cues.cloud = &s.cloud;
+  cues.cloud = s.cloud;
   LinkageResult reference;
   Linkage(p).Compute(s.sv, s.f, cues, &reference);
   for (int threads : {1, 2, 3}) {
