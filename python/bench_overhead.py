@@ -3,8 +3,8 @@
 
 For each frame: the wall time of Segmenter.segment() as Python sees it, minus the wall time of
 the C++ Segmenter::Process inside it (SegmentationResult.times['total']). The difference is
-what the binding adds: argument checks, the copy of the arrays into the pipeline's input cloud,
-handing the labels over to numpy and building the result objects.
+what the binding adds: argument checks, packing the colours into the pipeline's rgba (the
+points are read in place), handing the labels over to numpy and building the result objects.
 
 Usage: bench_overhead.py [--frames N] [--threads T] [CLOUD.pcd]
 Without a cloud, a 640x480 synthetic scene is made with clutterseg-synth (from
