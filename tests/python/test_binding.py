@@ -77,6 +77,16 @@ def test_non_contiguous_arrays_give_the_same_labels(scene1):
     assert np.array_equal(seg.segment(tall, scene1.colors).labels, ref)
 
 
+def test_unaligned_points_are_copied_not_viewed(scene1):
+    seg = clutterseg.Segmenter(threads=1)
+    ref = seg.segment(scene1.points).labels
+    raw = np.zeros(scene1.points.nbytes + 1, np.uint8)
+    raw[1:] = np.frombuffer(scene1.points.tobytes(), np.uint8)
+    unaligned = np.frombuffer(raw.data, np.float32, offset=1).reshape(scene1.points.shape)
+    assert not unaligned.flags.aligned and unaligned.flags.c_contiguous
+    assert np.array_equal(seg.segment(unaligned).labels, ref)
+
+
 def test_result_is_a_snapshot(scene, scene1):
     seg = clutterseg.Segmenter(threads=1)
     first = seg.segment(scene.points, scene.colors)
