@@ -48,15 +48,19 @@ add_custom_command(
   COMMENT "lcm-gen --cpp: clutterseg message types"
   VERBATIM)
 # The Python package also holds our own modules: a udpm / log-file receiver (Debian has no
-# python3-lcm) and the label image codec.
+# python3-lcm) and the label image codec. Its __init__.py is ours (it also imports the
+# compiled part, python/, when that is installed); lcm-gen keeps an existing __init__.py and
+# appends the imports of the message types.
 set(_lcm_py_extras "${CMAKE_CURRENT_SOURCE_DIR}/python/transport.py"
                    "${CMAKE_CURRENT_SOURCE_DIR}/python/label_image_codec.py")
 add_custom_command(
   OUTPUT ${_lcm_py_outputs} "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}/clutterseg/transport.py"
          "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}/clutterseg/label_image_codec.py"
+  COMMAND ${CMAKE_COMMAND} -E copy "${CMAKE_CURRENT_SOURCE_DIR}/python/__init__.py"
+          "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}/clutterseg/__init__.py"
   COMMAND ${CLUTTERSEG_LCM_GEN} --python --ppath "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}" ${_lcm_sources}
   COMMAND ${CMAKE_COMMAND} -E copy ${_lcm_py_extras} "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}/clutterseg/"
-  DEPENDS ${_lcm_sources} ${_lcm_py_extras}
+  DEPENDS ${_lcm_sources} ${_lcm_py_extras} "${CMAKE_CURRENT_SOURCE_DIR}/python/__init__.py"
   COMMENT "lcm-gen --python: clutterseg message types"
   VERBATIM)
 add_custom_target(clutterseg_lcmtypes_gen ALL DEPENDS ${_lcm_cpp_outputs} ${_lcm_py_outputs}
@@ -84,7 +88,7 @@ install(FILES ${_lcm_sources}
         DESTINATION ${CMAKE_INSTALL_DATADIR}/clutterseg/lcmtypes/clutterseg COMPONENT bindings)
 install(DIRECTORY "${CLUTTERSEG_LCMTYPES_PYTHON_DIR}/clutterseg"
         DESTINATION lib/python3/dist-packages COMPONENT bindings
-        FILES_MATCHING PATTERN "*.py")
+        FILES_MATCHING PATTERN "*.py" PATTERN "__pycache__" EXCLUDE)
 
 # Java classes for lcm-spy (java -cp /usr/share/java/lcm.jar:.../clutterseg_lcmtypes.jar
 # lcm.spy.Spy), built only when a JDK and lcm.jar are present.

@@ -33,6 +33,7 @@ BELOW = {
     "drivers/openni2": ["core", "drivers/oni"],
     "drivers/replay": ["io", "synth"],
     "daemon": ["config", "io", "drivers/oni", "drivers/openni2", "drivers/replay"],
+    "python": ["config", "io", "eval"],
 }
 
 

@@ -182,12 +182,10 @@ void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
   // Organized or not (HEIGHT 1): the labels follow the input's points either way. The
   // intrinsics are used for an organized cloud, and to draw an unorganized one (--png).
   io::ReadPcd(in.string(), io::ReadLimits{}, cloud);
-  *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
-                                            : io::ReadIntrinsicsJson(opt.intrinsics_file);
-  if (cloud->organized() &&
-      (intrinsics->width != cloud->width || intrinsics->height != cloud->height)) {
-    *intrinsics = intrinsics->Scaled(cloud->width, cloud->height);
-  }
+  *intrinsics = core::IntrinsicsForCloud(opt.intrinsics_file.empty()
+                                             ? core::DefaultKinectIntrinsics()
+                                             : io::ReadIntrinsicsJson(opt.intrinsics_file),
+                                         *cloud);
 }
 
 // One file the run reads or writes, for the checks before it starts.

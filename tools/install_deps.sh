@@ -12,6 +12,7 @@ pkgs=(
   libpng-dev libdeflate-dev zlib1g-dev libyaml-cpp-dev libcli11-dev libsystemd-dev nlohmann-json3-dev
   libjchart2d-java dpkg-dev file
   clang libclang-rt-14-dev clang-format iproute2
+  python3-dev pybind11-dev python3-numpy python3-pytest
 )
 if [ "${1:-}" = "--pcl" ]; then pkgs+=(libpcl-dev); fi
 missing=()

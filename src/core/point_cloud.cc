@@ -18,6 +18,14 @@ size_t PointCloud::CountValid() const {
   return n;
 }
 
+CameraIntrinsics IntrinsicsForCloud(const CameraIntrinsics& intrinsics,
+                                    const PointCloudView& cloud) {
+  if (cloud.organized() && (intrinsics.width != cloud.width || intrinsics.height != cloud.height)) {
+    return intrinsics.Scaled(cloud.width, cloud.height);
+  }
+  return intrinsics;
+}
+
 void CameraIntrinsics::ValidateOrThrow(std::string_view section) const {
   const ParamCheck check(section);
   check.InRange("width", width, 1, 16384, "px");

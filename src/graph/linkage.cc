@@ -461,13 +461,13 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
 Linkage::CueUse Linkage::Use(const supervoxel::Supervoxels& sv, const LinkageCues& cues) const {
   CueUse use;
   const bool jumps = params_.depth_jump_rel > 0.f;
-  use.image_jumps = jumps && cues.cloud != nullptr && cues.cloud->organized() &&
+  use.image_jumps = jumps && cues.cloud.has_value() && cues.cloud->organized() &&
                     sv.width == cues.cloud->width && sv.height == cues.cloud->height &&
                     sv.pixel_label.size() == cues.cloud->xyz.size();
   use.view_jumps = jumps && !use.image_jumps && cues.voxels != nullptr &&
                    cues.voxel_supervoxel != nullptr &&
                    cues.voxel_supervoxel->size() == cues.voxels->size();
-  use.color = params_.color_threshold > 0.f && cues.cloud != nullptr && cues.cloud->has_color() &&
+  use.color = params_.color_threshold > 0.f && cues.cloud.has_value() && cues.cloud->has_color() &&
               cues.cloud->rgba.size() == sv.pixel_label.size();
   return use;
 }
@@ -478,7 +478,7 @@ void Linkage::PrepareCues(const supervoxel::Supervoxels& sv, const LinkageCues& 
 }
 
 void Linkage::CountImageBorderPairs(const supervoxel::Supervoxels& sv,
-                                    const core::PointCloud& cloud) {
+                                    const core::PointCloudView& cloud) {
   const size_t slots = sv.adjacency.size();
   border_pairs_.assign(slots, 0);
   jump_pairs_.assign(slots, 0);
@@ -719,7 +719,7 @@ void Linkage::CountViewBorderPairs(const supervoxel::Supervoxels& sv,
   }
 }
 
-void Linkage::MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud) {
+void Linkage::MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud) {
   const size_t n = sv.size();
   const size_t points = sv.pixel_label.size();
   constexpr size_t kPointGrain = 65536;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
@@ -34,11 +35,11 @@ struct LinkageResult {
 };
 
 /// What the border cues of LinkageParams (depth jumps, colour) read besides the supervoxels.
-/// Every pointer may be null; a cue without its input is skipped.
+/// Each may be absent (null); a cue without its input is skipped.
 struct LinkageCues {
   /// The cloud the supervoxels were made from (Supervoxels::pixel_label indexes its points):
   /// depths across the image border of an organized cloud, and colour.
-  const core::PointCloud* cloud{nullptr};
+  std::optional<core::PointCloudView> cloud;
   /// For an unorganized cloud: the voxels the supervoxels were grown over and the supervoxel
   /// of each voxel (supervoxel::Supervoxelizer::voxels() and voxel_label()). Border pairs are
   /// then voxels that are near neighbours in view direction.
@@ -97,11 +98,11 @@ class Linkage {
   CueUse Use(const supervoxel::Supervoxels& sv, const LinkageCues& cues) const;
 
   // Depth-jump evidence per CSR slot of the lower supervoxel id (border_pairs_, jump_pairs_).
-  void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
+  void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud);
   void CountViewBorderPairs(const supervoxel::Supervoxels& sv, const geometry::VoxelGrid& voxels,
                             const std::vector<int32_t>& voxel_supervoxel);
   // Mean chromaticity per supervoxel (mean_chroma_, 3 per supervoxel).
-  void MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloud& cloud);
+  void MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud);
   // The supervoxels PrepareCues last ran for, until the Compute that uses its cues.
   const supervoxel::Supervoxels* prepared_for_{nullptr};
 

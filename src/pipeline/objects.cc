@@ -112,7 +112,7 @@ void ObjectExtractor::AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba
 ObjectExtractor::ObjectExtractor(core::ThreadPool* pool) : pool_(pool) {}
 ObjectExtractor::~ObjectExtractor() = default;
 
-void ObjectExtractor::Compute(const core::PointCloud& cloud, SegmentationResult* result) {
+void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationResult* result) {
   const core::ScopedTimer timer(&result->times[Stage::kObjects]);
   core::ThreadPool* const pool = pool_;
   const core::LabelImage& labels = result->labels;

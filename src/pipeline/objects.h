@@ -29,7 +29,7 @@ class ObjectExtractor {
   /// Fills the statistics of the result->objects.size() objects of result->labels
   /// (objects[k].id == k + 1) over `cloud` (same layout as the label image), with
   /// result->planes for the support planes, and its time in result->times[Stage::kObjects].
-  void Compute(const core::PointCloud& cloud, SegmentationResult* result);
+  void Compute(const core::PointCloudView& cloud, SegmentationResult* result);
 
  private:
   core::ThreadPool* const pool_;

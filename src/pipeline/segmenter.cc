@@ -65,7 +65,7 @@ const SegmenterParams& Segmenter::params() const { return impl_->params; }
 
 const core::PointCloud& Segmenter::working_cloud() const { return impl_->work.cloud; }
 
-void Segmenter::Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+void Segmenter::Process(const core::PointCloudView& cloud, const core::CameraIntrinsics& intrinsics,
                         SegmentationResult* result) {
   Impl& m = *impl_;
   const auto t_start = Clock::now();
@@ -88,7 +88,7 @@ void Segmenter::ProcessDepth(const core::DepthImage& depth, const core::ColorIma
   result->times.total_ms = MsSince(t_start);
 }
 
-void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraIntrinsics& intrinsics,
                         SegmentationResult* result) {
   Impl& m = *impl_;
   StageTimes& times = result->times;
@@ -137,7 +137,7 @@ void Segmenter::Segment(const core::PointCloud& cloud, const core::CameraIntrins
   // The border cues read the input's depths and colour (the working cloud's points are the
   // input's wherever a supervoxel is), and for an unorganized cloud the voxels.
   graph::LinkageCues cues;
-  cues.cloud = &cloud;
+  cues.cloud = cloud;
   if (!work.organized()) {
     cues.voxels = &m.supervoxelizer.voxels();
     cues.voxel_supervoxel = &m.supervoxelizer.voxel_label();

@@ -35,7 +35,7 @@ class Segmenter {
   /// `intrinsics` are those of the camera that took an organized cloud. Degenerate input (no
   /// valid point, a single plane, noise) yields a valid, possibly empty, result; it never
   /// throws for frame content.
-  void Process(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+  void Process(const core::PointCloudView& cloud, const core::CameraIntrinsics& intrinsics,
                SegmentationResult* result);
   /// Back-projects `depth` (millimetres, 0 = invalid; `color` optional, may be null) straight
   /// into the working cloud and segments it: the same result as DepthToPointCloud followed by
@@ -53,7 +53,7 @@ class Segmenter {
  private:
   // The stages after the working cloud; `cloud` is the one whose points (and colour) the
   // object statistics read.
-  void Segment(const core::PointCloud& cloud, const core::CameraIntrinsics& intrinsics,
+  void Segment(const core::PointCloudView& cloud, const core::CameraIntrinsics& intrinsics,
                SegmentationResult* result);
 
   struct Impl;

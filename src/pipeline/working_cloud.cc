@@ -62,7 +62,7 @@ void PointsParams::ValidateOrThrow() const {
 WorkingCloudBuilder::WorkingCloudBuilder(const PointsParams& params, core::ThreadPool* pool)
     : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
-void WorkingCloudBuilder::Compute(const core::PointCloud& input, bool keep_color,
+void WorkingCloudBuilder::Compute(const core::PointCloudView& input, bool keep_color,
                                   WorkingCloud* out) {
   const core::ScopedTimer timer(&out->time_ms);
   core::PointCloud& work = out->cloud;
@@ -82,7 +82,7 @@ void WorkingCloudBuilder::Compute(const core::PointCloud& input, bool keep_color
   out->num_valid =
       static_cast<uint32_t>(std::accumulate(chunk_valid_.begin(), chunk_valid_.end(), 0u));
   if (keep_color && input.has_color()) {
-    work.rgba = input.rgba;
+    work.rgba.assign(input.rgba.begin(), input.rgba.end());
   } else {
     work.rgba.clear();
   }

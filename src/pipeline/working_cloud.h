@@ -46,7 +46,7 @@ class WorkingCloudBuilder {
 
   /// From a cloud (metres, camera frame, NaN = invalid). Its colour is copied when
   /// `keep_color` and the cloud has colour; labels never.
-  void Compute(const core::PointCloud& input, bool keep_color, WorkingCloud* out);
+  void Compute(const core::PointCloudView& input, bool keep_color, WorkingCloud* out);
   /// From a depth image (millimetres, 0 = invalid) with `intrinsics`, and its colour when
   /// `color` is non-null and has the depth's size: one pass over the pixels.
   void Compute(const core::DepthImage& depth, const core::ColorImage* color,

@@ -137,5 +137,33 @@ TEST(CameraIntrinsics, ScalingKeepsPixelCentres) {
   EXPECT_DOUBLE_EQ(half.cx, 159.5);
 }
 
+TEST(IntrinsicsForCloud, ScalesToAnOrganizedCloudOfAnotherSize) {
+  PointCloud cloud;
+  cloud.width = 320;
+  cloud.height = 240;
+  cloud.xyz.resize(320 * 240);
+  const CameraIntrinsics k = IntrinsicsForCloud(DefaultKinectIntrinsics(), cloud);
+  const CameraIntrinsics expected = DefaultKinectIntrinsics().Scaled(320, 240);
+  EXPECT_EQ(k.width, 320);
+  EXPECT_EQ(k.height, 240);
+  EXPECT_DOUBLE_EQ(k.fx, expected.fx);
+  EXPECT_DOUBLE_EQ(k.cx, expected.cx);
+}
+
+TEST(IntrinsicsForCloud, KeepsThemForAnUnorganizedCloudOrTheSameSize) {
+  PointCloud unorganized;
+  unorganized.width = 1000;
+  unorganized.height = 1;
+  unorganized.xyz.resize(1000);
+  const CameraIntrinsics k{640, 480, 600.0, 610.0, 320.0, 250.0};
+  EXPECT_DOUBLE_EQ(IntrinsicsForCloud(k, unorganized).fx, 600.0);
+  EXPECT_EQ(IntrinsicsForCloud(k, unorganized).width, 640);
+  PointCloud same;
+  same.width = 640;
+  same.height = 480;
+  same.xyz.resize(640 * 480);
+  EXPECT_DOUBLE_EQ(IntrinsicsForCloud(k, same).cy, 250.0);
+}
+
 }  // namespace
 }  // namespace clutterseg::core

@@ -375,7 +375,7 @@ StepScene MakeStep(double step_m, int touch_rows, bool organized, int width = 80
 int StepEdgeKept(const StepScene& s, const LinkageParams& params, bool camera_transform,
                  core::ThreadPool* pool = nullptr) {
   LinkageCues cues;
-  cues.cloud = &s.cloud;
+  cues.cloud = s.cloud;
   geometry::VoxelGridParams gp;
   gp.use_single_camera_transform = camera_transform;
   geometry::Voxelizer voxelizer(gp);
@@ -478,7 +478,7 @@ TEST(Linkage, ColourCutsConcaveEdgesBetweenDifferentColours) {
   g.sv.width = 40;
   g.sv.height = 1;
   LinkageCues cues;
-  cues.cloud = &cloud;
+  cues.cloud = cloud;
   LinkageParams p;
   p.color_threshold = 0.f;
   LinkageResult r;
@@ -516,7 +516,7 @@ TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   g.sv.width = 20;
   g.sv.height = 1;
   LinkageCues cues;
-  cues.cloud = &cloud;
+  cues.cloud = cloud;
   LinkageParams p;
   EXPECT_EQ(p.color_concavity_tolerance_deg, 0.f);  // off by default (docs/method.md)
   p.color_concavity_tolerance_deg = 60.f;
@@ -528,11 +528,13 @@ TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   Linkage(p).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 0);  // two colours
   cloud.rgba.clear();
+  cues.cloud = cloud;  // the view sees the cloud as it is when taken
   Linkage(p).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 0);  // no colour: the 35 degree tolerance
   LinkageParams off = p;
   off.color_concavity_tolerance_deg = 0.f;
   for (int k = 0; k < 20; ++k) cloud.rgba.push_back(0xffc81e14u);
+  cues.cloud = cloud;
   Linkage(off).Compute(g.sv, g.f, cues, &r);
   EXPECT_EQ(g.Kept(r, 0, 1), 0);  // one colour, but the wider tolerance off
 }
@@ -544,7 +546,7 @@ TEST(Linkage, IdenticalForAnyThreadCount) {
   p.min_segment_supervoxels = 3;
   p.crease_min_angle_deg = 25.f;
   LinkageCues cues;  // depth jumps across the image border
-  cues.cloud = &s.cloud;
+  cues.cloud = s.cloud;
   LinkageResult reference;
   Linkage(p).Compute(s.sv, s.f, cues, &reference);
   for (int threads : {1, 2, 3}) {

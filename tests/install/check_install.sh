@@ -21,6 +21,8 @@ rm -rf "$work"
 mkdir -p "$work"
 root="$work/root"
 prefix=$(sed -n 's/^CMAKE_INSTALL_PREFIX:PATH=//p' "$build/CMakeCache.txt")
+# The Python module is built when python3-dev and pybind11-dev are present.
+pymodule=$(find "$build/lcmtypes/python/clutterseg" -name '_core*.so' 2> /dev/null | head -1)
 [ -n "$prefix" ] || fail "no CMAKE_INSTALL_PREFIX in $build/CMakeCache.txt"
 
 case "$mode" in
@@ -32,8 +34,10 @@ case "$mode" in
       { tail -20 "$work/cpack.log"; fail "cpack -G DEB"; }
     shopt -s nullglob
     debs=("$work"/debs/*.deb)
-    [ "${#debs[@]}" -eq 3 ] || fail "expected 3 packages, got: ${debs[*]}"
-    for pkg in clutterseg libclutterseg-dev clutterseg-lcmtypes; do
+    pkgs=(clutterseg libclutterseg-dev clutterseg-lcmtypes)
+    if [ -n "$pymodule" ]; then pkgs+=(python3-clutterseg); fi
+    [ "${#debs[@]}" -eq "${#pkgs[@]}" ] || fail "expected ${pkgs[*]}, got: ${debs[*]}"
+    for pkg in "${pkgs[@]}"; do
       deb=$(ls "$work"/debs/${pkg}_*.deb 2> /dev/null | head -1)
       [ -n "$deb" ] || fail "package $pkg missing"
       dpkg-deb -x "$deb" "$root"
@@ -42,6 +46,10 @@ case "$mode" in
     grep -q "libopenni2-0" "$work/clutterseg.control" || fail "clutterseg does not depend on libopenni2-0"
     grep -q "liblcm1" "$work/clutterseg.control" || fail "clutterseg does not depend on liblcm1 (shlibdeps)"
     grep -q "clutterseg-lcmtypes" "$work/libclutterseg-dev.control" || fail "-dev does not depend on the bindings"
+    if [ -n "$pymodule" ]; then
+      grep -q "clutterseg-lcmtypes (= .*python3-numpy" "$work/python3-clutterseg.control" ||
+        fail "python3-clutterseg does not depend on the bindings and numpy: $(cat "$work/python3-clutterseg.control")"
+    fi
     dpkg-deb -c "$work"/debs/clutterseg_*.deb > "$work/clutterseg.contents"
     grep -q "usr/bin/clutterseg$" "$work/clutterseg.contents" || fail "no /usr/bin/clutterseg in the package"
     grep -q "etc/clutterseg/clutterseg.yaml" "$work/clutterseg.contents" ||
@@ -105,6 +113,15 @@ case "$loaded" in *"$build/openni2-recordings"*) fail "the installed daemon reac
 # 4. Python bindings (no lcm module) and Java bindings on that log.
 pydir=$(find "$p" -type d -name dist-packages | head -1)
 PYTHONPATH="$pydir" python3 "$src/tests/install/decode_log.py" "$log" || fail "python decode"
+# 4b. The Python module of the staged prefix segments a frame as the installed tool does.
+if [ -n "$pymodule" ]; then
+  "$p/bin/clutterseg-synth" --out "$work/pysynth" --count 1 --seed 5 > /dev/null 2>&1 ||
+    fail "installed clutterseg-synth --out"
+  "$p/bin/clutterseg-segment" "$work/pysynth/scene_0000.pcd" "$work/pysynth/seg.pcd" --quiet \
+    > /dev/null || fail "installed clutterseg-segment on a synthetic scene"
+  PYTHONPATH="$pydir" PYTHONDONTWRITEBYTECODE=1 /usr/bin/python3 "$src/tests/install/segment_frame.py" \
+    "$root" "$work/pysynth/scene_0000.pcd" "$work/pysynth/seg.pcd" || fail "python segment"
+fi
 if command -v javac > /dev/null && [ -f /usr/share/java/lcm.jar ]; then
   jar=$(find "$p" -name clutterseg_lcmtypes.jar | head -1)
   [ -n "$jar" ] || fail "clutterseg_lcmtypes.jar not installed"

@@ -96,7 +96,7 @@ StageInputs* GetInputs(benchmark::State& state) {
   fx.Compute(in->work, in->sv, &in->features);
   graph::Linkage linkage(in->params.linkage, pool);
   graph::LinkageCues cues;
-  cues.cloud = &in->cloud;
+  cues.cloud = in->cloud;
   linkage.Compute(in->sv, in->features, cues, &in->link);
   optimize::PlaneLabeler labeler(in->params.planes);
   labeler.Compute(in->sv, in->features, &in->planes);
@@ -179,7 +179,7 @@ void BM_Linkage(benchmark::State& state) {
   graph::Linkage linkage(in->params.linkage, in->pool.get());
   graph::LinkageResult link;
   graph::LinkageCues cues;  // as the Segmenter passes them (an organized frame)
-  cues.cloud = &in->cloud;
+  cues.cloud = in->cloud;
   for (auto _ : state) {
     linkage.Compute(in->sv, in->features, cues, &link);
     benchmark::DoNotOptimize(link.segment.data());

@@ -7,6 +7,9 @@
 #   component bindings -> clutterseg-lcmtypes  the .lcm files and their C++, Python and Java
 #                                               bindings (with the label image codec),
 #                                               clutterseg-spy
+#   component python   -> python3-clutterseg   the compiled part of the Python package
+#                                               (clutterseg._core: Segmenter, read_pcd, ...),
+#                                               beside the bindings' pure-Python modules
 #
 # Layout under the prefix (GNUInstallDirs; the presets configure CMAKE_INSTALL_PREFIX=/usr,
 # Debian's layout; stage elsewhere with DESTDIR=/some/root cmake --install build/release):
@@ -15,7 +18,7 @@
 #   lib/<multiarch>/                       libclutterseg_<module>.a, cmake/clutterseg/,
 #                                          pkgconfig/clutterseg.pc,
 #                                          clutterseg/openni2-recordings/
-#   lib/python3/dist-packages/clutterseg/  Python bindings
+#   lib/python3/dist-packages/clutterseg/  Python bindings, and _core.cpython-*.so
 #   share/java/clutterseg_lcmtypes.jar     Java bindings (lcm-spy)
 #   share/clutterseg/lcmtypes/clutterseg/  the .lcm files
 #   share/clutterseg/config/               paper.yaml, previous-defaults.yaml (and the shipped defaults)
@@ -37,6 +40,16 @@ foreach(t clutterseg clutterseg-segment clutterseg-eval clutterseg-synth clutter
     install(TARGETS ${t} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT daemon)
   endif()
 endforeach()
+
+# The Python module (src/python/), in the package directory of the Python LCM bindings.
+if(TARGET clutterseg_python_core)
+  install(TARGETS clutterseg_python_core
+          LIBRARY DESTINATION ${CLUTTERSEG_INSTALL_PYTHONDIR}/clutterseg COMPONENT python)
+  if(NOT TARGET clutterseg_lcmtypes_gen)  # without LCM the package is the module alone
+    install(FILES "${CLUTTERSEG_PYTHON_PACKAGE_DIR}/__init__.py"
+            DESTINATION ${CLUTTERSEG_INSTALL_PYTHONDIR}/clutterseg COMPONENT python)
+  endif()
+endif()
 
 install(PROGRAMS "${PROJECT_SOURCE_DIR}/tools/clutterseg-spy.sh" RENAME clutterseg-spy
         DESTINATION ${CMAKE_INSTALL_BINDIR} COMPONENT bindings)
@@ -105,6 +118,9 @@ set(CPACK_PACKAGE_CONTACT "clutterseg maintainers <maintainers@clutterseg.invali
 set(CPACK_GENERATOR DEB)
 set(CPACK_DEB_COMPONENT_INSTALL ON)
 set(CPACK_COMPONENTS_ALL daemon dev bindings)
+if(TARGET clutterseg_python_core)
+  list(APPEND CPACK_COMPONENTS_ALL python)
+endif()
 set(CPACK_DEBIAN_FILE_NAME DEB-DEFAULT)
 set(CPACK_DEBIAN_PACKAGE_SECTION science)
 set(CPACK_DEBIAN_PACKAGE_HOMEPAGE "https://clutterseg.invalid")
@@ -131,4 +147,20 @@ set(CPACK_DEBIAN_BINDINGS_PACKAGE_RECOMMENDS "liblcm-java, libjchart2d-java, def
 set(CPACK_DEBIAN_BINDINGS_PACKAGE_SUGGESTS "liblcm-dev")
 set(CPACK_DEBIAN_BINDINGS_DESCRIPTION
     "clutterseg LCM message types and bindings\n The .lcm files of the clutterseg messages and their generated bindings: C++\n headers, the Python package clutterseg (with a pure-Python LCM subscriber and the\n label image codec, no lcm module needed) and the Java jar for lcm-spy\n (clutterseg-spy).")
+# Debian's name for a Python 3 module is python3-<module>; it is built for one Python version
+# (the extension's ABI tag), so it depends on that version as dh_python3 would write it.
+if(TARGET clutterseg_python_core)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_NAME python3-clutterseg)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_SECTION python)
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_SHLIBDEPS ON)
+  math(EXPR _py_next_minor "${Python3_VERSION_MINOR} + 1")
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS
+      "python3 (>= ${Python3_VERSION_MAJOR}.${Python3_VERSION_MINOR}), python3 (<< ${Python3_VERSION_MAJOR}.${_py_next_minor}), python3-numpy")
+  if(TARGET clutterseg_lcmtypes_gen)  # the package's __init__.py and pure-Python part
+    string(PREPEND CPACK_DEBIAN_PYTHON_PACKAGE_DEPENDS "clutterseg-lcmtypes (= ${PROJECT_VERSION}), ")
+  endif()
+  set(CPACK_DEBIAN_PYTHON_PACKAGE_SUGGESTS "python3-matplotlib")
+  set(CPACK_DEBIAN_PYTHON_DESCRIPTION
+      "clutterseg segmentation for Python\n The compiled module clutterseg._core of the Python package clutterseg:\n clutterseg.Segmenter segments numpy point clouds and depth images into\n objects and support planes (the same labels as clutterseg-segment);\n read_pcd, write_pcd and evaluate (the metrics of clutterseg-eval).")
+endif()
 include(CPack)
