@@ -215,16 +215,11 @@ class RefArgs:
 
 
 def find_data_root(source_dir):
-    """The real data sets' root, searched as the C++ tests do (CLUTTERSEG_DATA, then the
-    checkout's data/, then ../shared/data beside it), or None when none exists."""
-    env = os.environ.get("CLUTTERSEG_DATA")
-    if env:
-        return env if os.path.isdir(env) else None
-    for cand in (os.path.join(source_dir, "data"),
-                 os.path.join(source_dir, "..", "shared", "data")):
-        if os.path.isdir(cand):
-            return cand
-    return None
+    """The real data sets' root as every test finds it (tools/data_root.sh: CLUTTERSEG_DATA,
+    then the checkout's data/, then ../shared/data beside it), or None when none exists."""
+    found = subprocess.run(["bash", os.path.join(source_dir, "tools", "data_root.sh")],
+                           capture_output=True, text=True, check=False)
+    return found.stdout.strip() if found.returncode == 0 else None
 
 
 def real_frames(opt, ref):

@@ -2,11 +2,11 @@
 unorganized clouds, give exactly the labels of clutterseg-segment; evaluate() gives the
 scores of clutterseg-eval under the mOSD conventions.
 
-Data: $CLUTTERSEG_DATA when set, else the first existing of <source>/data and
-<source>/../shared/data (a data root without the frames below fails). Without any, every test is
+Data: where tools/data_root.sh finds it ($CLUTTERSEG_DATA, <source>/data, <source>/../shared/data;
+a data root without the frames below fails). Without any, every test is
 skipped with a message naming tools/fetch_data.sh."""
-import os
 import pathlib
+import subprocess
 
 import numpy as np
 import pytest
@@ -19,14 +19,11 @@ FRAMES = [0, 20, 28, 40]
 
 
 def data_root():
-    """$CLUTTERSEG_DATA when set (even if it does not exist: then the frames are missing),
-    else the first existing of <source>/data and <source>/../shared/data, else None."""
-    if os.environ.get("CLUTTERSEG_DATA"):
-        return pathlib.Path(os.environ["CLUTTERSEG_DATA"])
-    for c in (SOURCE_DIR / "data", SOURCE_DIR.parent / "shared" / "data"):
-        if c.is_dir():
-            return c
-    return None
+    """The real data root as every test finds it (tools/data_root.sh: $CLUTTERSEG_DATA when
+    set, else <source>/data, else <source>/../shared/data), or None when none exists."""
+    found = subprocess.run(["bash", str(SOURCE_DIR / "tools" / "data_root.sh")],
+                           capture_output=True, text=True, check=False)
+    return pathlib.Path(found.stdout.strip()) if found.returncode == 0 else None
 
 
 @pytest.fixture(scope="module")
