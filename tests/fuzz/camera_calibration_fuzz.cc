@@ -1,0 +1,45 @@
+// libFuzzer target for the camera calibration readers a user hands the daemon and the tools:
+// the ROS camera_info YAML of camera.intrinsics_file (config::ReadCameraInfoYaml) and the
+// intrinsics JSON of depth-PNG directories (io::ReadIntrinsicsJson). Both read a path, so the
+// input goes through a memfd. Each either returns intrinsics a camera can have (they pass
+// CameraIntrinsics::ValidateOrThrow) or throws std::runtime_error (config::ConfigError is
+// one); any other exception, a crash or a sanitizer report is a finding.
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <stdexcept>
+#include <string>
+
+#include "clutterseg/config/camera_info.h"
+#include "clutterseg/io/png_io.h"
+#include "tests/fuzz/fuzz_check.h"
+#include "tests/fuzz/memfd_input.h"
+
+namespace {
+
+template <typename Read>
+void Check(const char* what, Read read) {
+  clutterseg::core::CameraIntrinsics k;
+  try {
+    k = read();
+  } catch (const std::runtime_error&) {
+    return;  // refused, with a message
+  }
+  try {
+    k.ValidateOrThrow();
+  } catch (const std::invalid_argument& e) {
+    std::fprintf(stderr, "%s returned intrinsics no camera has: %s\n", what, e.what());
+    std::abort();
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  const std::string path = clutterseg::fuzz::MemfdPath(data, size);
+  Check("ReadCameraInfoYaml", [&] { return clutterseg::config::ReadCameraInfoYaml(path); });
+  Check("ReadIntrinsicsJson", [&] { return clutterseg::io::ReadIntrinsicsJson(path); });
+  return 0;
+}

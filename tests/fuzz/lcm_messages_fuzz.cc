@@ -1,0 +1,81 @@
+// libFuzzer target for what clutterseg-listen, clutterseg-regress and a consumer read from an
+// LCM log or the bus: the first input byte picks the parser, the rest is its input.
+//   0: objects_t::decode; 1: status_t::decode; 2: label_image_t::decode, then
+//   daemon::DecodeLabelImage (RLE / zlib); 3: daemon::ScanLcmLog on the bytes as a log file.
+// decode() returns a negative length for a malformed message (a decoded message must
+// re-encode to the bytes it read); DecodeLabelImage gives an image of the declared size or
+// throws std::runtime_error; ScanLcmLog never covers more bytes than the file has.
+
+#include <algorithm>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "clutterseg/daemon/lcm_log_file.h"
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/label_image_t.hpp"
+#include "clutterseg/objects_t.hpp"
+#include "clutterseg/status_t.hpp"
+#include "tests/fuzz/fuzz_check.h"
+#include "tests/fuzz/memfd_input.h"
+
+namespace {
+
+// Decodes `msg` from the bytes; a message that decodes must encode to the bytes it used.
+template <typename Message>
+bool DecodeChecked(const uint8_t* data, size_t size, Message* msg) {
+  const int used = msg->decode(data, 0, static_cast<int>(size));
+  if (used < 0) return false;
+  CLUTTERSEG_FUZZ_CHECK(static_cast<size_t>(used) <= size);
+  CLUTTERSEG_FUZZ_CHECK(msg->getEncodedSize() == used);
+  std::vector<uint8_t> again(static_cast<size_t>(used));
+  CLUTTERSEG_FUZZ_CHECK(msg->encode(again.data(), 0, used) == used);
+  CLUTTERSEG_FUZZ_CHECK(std::equal(again.begin(), again.end(), data));
+  return true;
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  if (size == 0 || size > (1u << 24)) return 0;
+  const uint8_t which = data[0] % 4;
+  ++data;
+  --size;
+  switch (which) {
+    case 0: {
+      clutterseg::objects_t msg;
+      DecodeChecked(data, size, &msg);
+      break;
+    }
+    case 1: {
+      clutterseg::status_t msg;
+      DecodeChecked(data, size, &msg);
+      break;
+    }
+    case 2: {
+      clutterseg::label_image_t msg;
+      if (!DecodeChecked(data, size, &msg)) break;
+      clutterseg::core::LabelImage labels;
+      try {
+        clutterseg::daemon::DecodeLabelImage(msg, &labels);
+      } catch (const std::runtime_error&) {
+        break;
+      }
+      CLUTTERSEG_FUZZ_CHECK(labels.width == msg.width && labels.height == msg.height);
+      CLUTTERSEG_FUZZ_CHECK(labels.data.size() ==
+                            static_cast<size_t>(msg.width) * static_cast<size_t>(msg.height));
+      break;
+    }
+    default: {
+      const clutterseg::daemon::LcmLogScan scan =
+          clutterseg::daemon::ScanLcmLog(clutterseg::fuzz::MemfdPath(data, size));
+      CLUTTERSEG_FUZZ_CHECK(scan.file_bytes == size);
+      CLUTTERSEG_FUZZ_CHECK(scan.parsed_bytes <= scan.file_bytes);
+      CLUTTERSEG_FUZZ_CHECK(!scan.complete || scan.parsed_bytes == scan.file_bytes);
+      break;
+    }
+  }
+  return 0;
+}
