@@ -201,25 +201,30 @@ def test_pcd_round_trip_unorganized_without_colour(work_dir):
 def test_gil_is_released_while_segmenting(scene):
     seg = clutterseg.Segmenter(threads=1)
     seg.segment(scene.points, scene.colors)  # buffers grown
-    window = {}
-    ticks = []
-    done = threading.Event()
 
-    def work():
-        t0 = time.perf_counter()
-        seg.segment(scene.points, scene.colors)
-        window["call"] = (t0, time.perf_counter())
-        done.set()
+    def ticks_in_the_middle_of_a_call():
+        window = {}
+        ticks = []
+        done = threading.Event()
 
-    worker = threading.Thread(target=work)
-    worker.start()
-    while not done.is_set():
-        ticks.append(time.perf_counter())
-    worker.join()
-    t0, t1 = window["call"]
-    inner = [t for t in ticks if t0 + 0.25 * (t1 - t0) < t < t1 - 0.25 * (t1 - t0)]
-    # With the GIL held for the whole call this thread could not run in its middle half.
-    assert inner, f"no Python ran during the middle of a {1000 * (t1 - t0):.0f} ms call"
+        def work():
+            t0 = time.perf_counter()
+            seg.segment(scene.points, scene.colors)
+            window["call"] = (t0, time.perf_counter())
+            done.set()
+
+        worker = threading.Thread(target=work)
+        worker.start()
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+        worker.join()
+        t0, t1 = window["call"]
+        return [t for t in ticks if t0 + 0.25 * (t1 - t0) < t < t1 - 0.25 * (t1 - t0)]
+
+    # With the GIL held for the whole call this thread could never run in its middle half; a
+    # busy machine may leave it unscheduled there once, so a few calls are tried.
+    assert any(ticks_in_the_middle_of_a_call() for _ in range(5)), \
+        "no Python ran during the middle half of 5 segment calls: the GIL is held"
 
 
 def test_one_segmenter_per_thread_and_one_shared(scene, scene1):
