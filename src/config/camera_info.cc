@@ -38,18 +38,19 @@ int Dimension(const std::string& path, const YAML::Node& node, const std::string
 
 core::CameraIntrinsics ReadCameraInfoYaml(const std::string& path) {
   const std::string text = internal::ReadConfigFile(path);
-  std::vector<YAML::Node> docs;
+  YAML::Node doc;
+  int second = 0;
   try {
-    docs = YAML::LoadAll(text);
+    doc = YAML::Load(text);
+    // yaml-cpp's Load() reads the first document and drops the rest without a word.
+    second = internal::SecondYamlDocumentLine(text);
   } catch (const YAML::Exception& e) {
     Fail(path, "line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }
-  // yaml-cpp's Load() reads the first document and drops the rest without a word.
-  if (docs.size() > 1) {
-    Fail(path, "line " + std::to_string(docs[1].Mark().line + 1) +
+  if (second > 0) {
+    Fail(path, "line " + std::to_string(second) +
                    ": a second YAML document; a camera_info file holds one");
   }
-  const YAML::Node doc = docs.empty() ? YAML::Node() : docs[0];
   if (!doc.IsMap()) Fail(path, "expected a mapping with image_width, image_height, camera_matrix");
   const YAML::Node matrix = doc["camera_matrix"];
   if (!matrix || !matrix.IsMap()) Fail(path, "'camera_matrix' is missing");

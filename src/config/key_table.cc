@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <charconv>
@@ -13,6 +14,7 @@
 #include <sstream>
 
 #include <sys/stat.h>
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 namespace clutterseg::config {
@@ -203,23 +205,60 @@ std::string ReadConfigFile(const std::string& path) {
   return text;
 }
 
+namespace {
+
+// Notes where the second document starts; every other event is ignored.
+class DocumentCounter final : public YAML::EventHandler {
+ public:
+  int documents{0};
+  int second_line{0};  // 1-based
+
+  void OnDocumentStart(const YAML::Mark& mark) override {
+    if (++documents == 2) second_line = mark.line + 1;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+}  // namespace
+
+int SecondYamlDocumentLine(const std::string& text) {
+  std::istringstream stream(text);
+  YAML::Parser parser(stream);
+  DocumentCounter counter;
+  for (int i = 0; i < 2 && parser.HandleNextDocument(counter); ++i) {
+  }
+  return counter.documents >= 2 ? std::max(counter.second_line, 1) : 0;
+}
+
 void WalkYaml(const std::string& text, const std::string& origin,
               const std::vector<std::string>& paths, const std::string& only_section,
               const std::function<void(size_t, const std::string&)>& set) {
-  std::vector<YAML::Node> docs;
+  YAML::Node doc;
+  int second = 0;
   try {
-    docs = YAML::LoadAll(text);
+    doc = YAML::Load(text);
+    second = SecondYamlDocumentLine(text);
   } catch (const YAML::Exception& e) {
     throw ConfigError(Where(origin, e.mark) + ": YAML syntax error: " + e.msg);
   }
-  if (docs.size() > 1) {
-    throw ConfigError(Where(origin, docs[1].Mark()) +
+  if (second > 0) {
+    throw ConfigError(origin + ":" + std::to_string(second) +
                       ": a second YAML document; a config file holds one");
   }
-  if (docs.empty() || docs[0].IsNull()) return;
-  if (!docs[0].IsMap()) throw ConfigError(origin + ": expected a map of keys at the top level");
+  if (doc.IsNull()) return;
+  if (!doc.IsMap()) throw ConfigError(origin + ": expected a map of keys at the top level");
   try {
-    Walker{origin, paths, set}.Walk(docs[0], "", only_section);
+    Walker{origin, paths, set}.Walk(doc, "", only_section);
   } catch (const YAML::Exception& e) {
     throw ConfigError(Where(origin, e.mark) + ": " + e.msg);
   }

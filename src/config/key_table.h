@@ -139,6 +139,13 @@ namespace internal {
 /// error, never a blocking open) of at most 1 MiB. @throws ConfigError naming `path`.
 std::string ReadConfigFile(const std::string& path);
 
+/// The line (1-based) where a second YAML document of `text` starts, or 0 when `text` holds
+/// at most one. Documents are pulled one at a time and two at the most: yaml-cpp 0.7's LoadAll
+/// never ends on some malformed input (`,"a":1,"b":1e6x":2}` makes it build empty documents
+/// until memory runs out), and a file here must hold one document anyway. Thread-safe.
+/// @throws YAML::Exception (yaml-cpp's) on a syntax error.
+int SecondYamlDocumentLine(const std::string& text);
+
 /// Walks a YAML document (exactly one; a second document, duplicate keys, anchors that
 /// redefine a key and non-scalar keys are errors). For every scalar value at a key path in
 /// `paths` calls set(index into paths, value text, "origin:line"); a map at a prefix of some

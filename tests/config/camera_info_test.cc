@@ -53,6 +53,15 @@ TEST(CameraInfo, ReadsTheCameraMatrixAndImageSize) {
   EXPECT_DOUBLE_EQ(k.cy, 235.5);
 }
 
+TEST(CameraInfo, ASecondDocumentAndTextThatHangsYamlCppsLoadAllAreRefused) {
+  const std::string two =
+      Write("two.yaml", WithMatrix("570, 0, 314.5, 0, 570, 235.5, 0, 0, 1") + "---\na: 1\n");
+  EXPECT_NE(ErrorOf(two).find("line 17: a second YAML document"), std::string::npos)
+      << ErrorOf(two);
+  const std::string hang = Write("hang.yaml", ",\"kmg_height\":481,\"fx\":1e6fsoft\":248.1}\n");
+  EXPECT_NE(ErrorOf(hang), "");
+}
+
 TEST(CameraInfo, MalformedFilesAreRefusedNamingTheField) {
   const std::string skew = Write("skew.yaml", WithMatrix("570, 3, 314.5, 0, 570, 235.5, 0, 0, 1"));
   EXPECT_NE(ErrorOf(skew).find("not [fx 0 cx; 0 fy cy; 0 0 1]"), std::string::npos)
