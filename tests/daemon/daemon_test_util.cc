@@ -20,6 +20,7 @@
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/scene.h"
 #include "clutterseg/synth/sensor_params.h"
+#include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon::testutil {
 
@@ -55,6 +56,13 @@ void WriteTabletopOni(const std::string& path, int frames) {
 }
 
 Child Spawn(const std::vector<std::string>& argv) {
+  // The daemons of this test process lock their camera names in a directory of its own
+  // (lcm.lock_dir's default starts with $RUNTIME_DIRECTORY), never in the host's.
+  static const bool kLockDirSet = [] {
+    const auto dir = testing::ScratchDir("daemon_locks");
+    return setenv("RUNTIME_DIRECTORY", dir.c_str(), 1) == 0;
+  }();
+  (void)kLockDirSet;
   int pipefd[2];
   if (pipe2(pipefd, O_CLOEXEC) != 0) return {};
   const pid_t pid = fork();

@@ -34,7 +34,9 @@ struct Child {
   int stderr_fd{-1};
 };
 
-/// Starts `argv` (argv[0] is a path) with stdout to /dev/null and stderr to a pipe.
+/// Starts `argv` (argv[0] is a path) with stdout to /dev/null and stderr to a pipe, and
+/// $RUNTIME_DIRECTORY set to a scratch directory of this test process (the daemons' lock
+/// directory, see lcm.lock_dir).
 Child Spawn(const std::vector<std::string>& argv);
 /// Waits up to `timeout` for the child; returns its exit code, 128 + signal when killed by a
 /// signal, or -1 on timeout (the child is then killed). Appends its stderr to `*err`.
