@@ -44,20 +44,10 @@ class DaemonLock : public ::testing::Test {
   // A daemon replaying the recording in real time into `url`, locking in `lock_dir`.
   static std::vector<std::string> Daemon(const std::string& camera, const std::string& lock_dir,
                                          const std::string& url, int max_frames) {
-    return {CLUTTERSEG_DAEMON_EXE,
-            "--source",
-            oni_path_,
-            "--speed",
-            "realtime",
-            "--loop",
-            "--lcm-url",
-            url,
-            "--max-frames",
-            std::to_string(max_frames),
-            "--set",
-            "camera_name=" + camera,
-            "--set",
-            "lcm.lock_dir=" + lock_dir};
+    std::vector<std::string> argv =
+        testutil::LoopingDaemonArgv(CLUTTERSEG_DAEMON_EXE, oni_path_, url, camera, lock_dir);
+    argv.insert(argv.end(), {"--max-frames", std::to_string(max_frames)});
+    return argv;
   }
 
   static inline std::filesystem::path dir_;

@@ -226,18 +226,8 @@ TEST_F(DaemonProcess, SameCameraTwiceOnOneUdpmBusIsRefused) {
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
   const std::string locks = testing::ScratchDir("daemon_process_locks").string();
   auto daemon = [&](const std::vector<std::string>& extra) {
-    std::vector<std::string> argv = {CLUTTERSEG_DAEMON_EXE,
-                                     "--source",
-                                     oni_path_,
-                                     "--speed",
-                                     "realtime",
-                                     "--loop",
-                                     "--lcm-url",
-                                     url,
-                                     "--set",
-                                     "camera_name=arm",
-                                     "--set",
-                                     "lcm.lock_dir=" + locks};
+    std::vector<std::string> argv =
+        testutil::LoopingDaemonArgv(CLUTTERSEG_DAEMON_EXE, oni_path_, url, "arm", locks);
     argv.insert(argv.end(), extra.begin(), extra.end());
     return ns.Exec(argv);
   };

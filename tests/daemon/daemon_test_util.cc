@@ -55,6 +55,17 @@ void WriteTabletopOni(const std::string& path, int frames) {
   writer.Close();
 }
 
+std::vector<std::string> LoopingDaemonArgv(const std::string& exe, const std::string& recording,
+                                           const std::string& url, const std::string& camera,
+                                           const std::string& lock_dir) {
+  return {exe,         "--source",
+          recording,   "--speed",
+          "realtime",  "--loop",
+          "--lcm-url", url,
+          "--set",     "camera_name=" + camera,
+          "--set",     "lcm.lock_dir=" + lock_dir};
+}
+
 Child Spawn(const std::vector<std::string>& argv) {
   // The daemons of this test process lock their camera names in a directory of its own
   // (lcm.lock_dir's default starts with $RUNTIME_DIRECTORY), never in the host's.
