@@ -93,6 +93,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("lcm.depth_channel", &C::lcm, &LcmPublisherParams::depth_channel),
         MakeKey("lcm.object_points", &C::lcm, &LcmPublisherParams::object_points),
         MakeKey("lcm.check_instances", &C::lcm, &LcmPublisherParams::check_instances),
+        MakeKey("lcm.lock_dir", &C::lcm, &LcmPublisherParams::lock_dir),
         MakeKey("processing.queue_capacity", &C::capture, &CaptureParams::queue_capacity),
         MakeKey("processing.threads", &C::processing, &pipeline::FrameRunnerParams::threads),
         MakeKey("processing.pipeline_depth", &C::processing,

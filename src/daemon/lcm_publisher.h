@@ -36,7 +36,12 @@ struct LcmPublisherParams {
   int object_points{0};
   /// On a multicast bus (udpm, mpudpm), refuse to start when another daemon publishes the
   /// same camera_name there (found by listening to status_channel for one status period).
+  /// Also, on a transport others on this host can hear (udpm, mpudpm, tcpq), hold a lock
+  /// per camera_name in lock_dir for the process's life (InstanceLock).
   bool check_instances{true};
+  /// Directory of the per-camera lock files; empty = DefaultLockDir() ($RUNTIME_DIRECTORY,
+  /// /run/clutterseg, $XDG_RUNTIME_DIR/clutterseg, /tmp/clutterseg-UID).
+  std::string lock_dir;
   /// Frames that may wait for a slow transport (a stalled tcpq peer, a slow disk under a
   /// file:// log) before the oldest is dropped and counted.
   int queue_capacity{4};

@@ -23,6 +23,7 @@
 #include "clutterseg/daemon/daemon.h"
 #include "clutterseg/daemon/daemon_config.h"
 #include "clutterseg/daemon/heap.h"
+#include "clutterseg/daemon/instance_lock.h"
 #include "clutterseg/daemon/instance_watch.h"
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/lcm_log_file.h"
@@ -182,6 +183,24 @@ int Run(int argc, char** argv) {
     Log(LogLevel::kError, "configuration: lcm.url = '" + lcm_url + "'" +
                               (cfg.lcm.url.empty() ? " (from LCM_DEFAULT_URL)" : "") + ": " + why);
     return kExitUsage;
+  }
+  // One daemon per camera name on this host, even when two start together: a lock taken
+  // before anything is published and held until exit (the bus watch below finds other hosts).
+  std::unique_ptr<InstanceLock> instance_lock;
+  if (cfg.lcm.check_instances && UrlNeedsInstanceLock(lcm_url)) {
+    const std::string dir = cfg.lcm.lock_dir.empty() ? DefaultLockDir() : cfg.lcm.lock_dir;
+    try {
+      instance_lock = std::make_unique<InstanceLock>(dir, cfg.capture.camera_name);
+    } catch (const InstanceLockHeld& e) {
+      Log(LogLevel::kError, std::string("configuration: ") + e.what() +
+                                "; give each daemon its own camera_name (or set "
+                                "lcm.check_instances: false)");
+      return kExitUsage;
+    } catch (const std::exception& e) {
+      Log(LogLevel::kError, std::string("configuration: lcm.lock_dir = '") + dir +
+                                "': " + e.what() + "; set lcm.lock_dir to a writable directory");
+      return kExitUsage;
+    }
   }
   // A file:// log is written by the bus itself: locked, emptied or (?mode=a) its torn end cut.
   std::unique_ptr<LcmBus> bus;

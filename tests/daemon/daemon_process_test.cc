@@ -224,10 +224,10 @@ TEST_F(DaemonProcess, SameCameraTwiceOnOneUdpmBusIsRefused) {
   testutil::NetNamespace ns(/*route=*/true);
   if (!ns.ok()) GTEST_SKIP() << "skipped: " << ns.why();
   const std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  const std::string locks = testing::ScratchDir("daemon_process_locks").string();
   auto daemon = [&](const std::vector<std::string>& extra) {
-    std::vector<std::string> argv = {
-        CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed",        "realtime", "--loop",
-        "--lcm-url",           url,        "--set",   "camera_name=arm"};
+    std::vector<std::string> argv =
+        testutil::LoopingDaemonArgv(CLUTTERSEG_DAEMON_EXE, oni_path_, url, "arm", locks);
     argv.insert(argv.end(), extra.begin(), extra.end());
     return ns.Exec(argv);
   };
@@ -237,7 +237,14 @@ TEST_F(DaemonProcess, SameCameraTwiceOnOneUdpmBusIsRefused) {
 
   std::string err;
   const auto t0 = std::chrono::steady_clock::now();
-  EXPECT_EQ(testutil::Run(daemon({"--max-frames", "5"}), seconds(60), &err), kExitUsage) << err;
+  // A lock directory of its own stands for a daemon on another host of the bus: the host's
+  // lock (daemon_lock_test.cc) does not see it, the bus watch does.
+  const auto other_host = testing::ScratchDir("daemon_process_other_host");
+  EXPECT_EQ(
+      testutil::Run(daemon({"--max-frames", "5", "--set", "lcm.lock_dir=" + other_host.string()}),
+                    seconds(60), &err),
+      kExitUsage)
+      << err;
   std::printf("second daemon refused after %.1f s\n",
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   EXPECT_NE(err.find("already publishes camera 'arm' on CLUTTERSEG_STATUS"), std::string::npos)

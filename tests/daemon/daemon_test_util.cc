@@ -20,6 +20,7 @@
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/scene.h"
 #include "clutterseg/synth/sensor_params.h"
+#include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon::testutil {
 
@@ -54,7 +55,25 @@ void WriteTabletopOni(const std::string& path, int frames) {
   writer.Close();
 }
 
+std::vector<std::string> LoopingDaemonArgv(const std::string& exe, const std::string& recording,
+                                           const std::string& url, const std::string& camera,
+                                           const std::string& lock_dir) {
+  return {exe,         "--source",
+          recording,   "--speed",
+          "realtime",  "--loop",
+          "--lcm-url", url,
+          "--set",     "camera_name=" + camera,
+          "--set",     "lcm.lock_dir=" + lock_dir};
+}
+
 Child Spawn(const std::vector<std::string>& argv) {
+  // The daemons of this test process lock their camera names in a directory of its own
+  // (lcm.lock_dir's default starts with $RUNTIME_DIRECTORY), never in the host's.
+  static const bool kLockDirSet = [] {
+    const auto dir = testing::ScratchDir("daemon_locks");
+    return setenv("RUNTIME_DIRECTORY", dir.c_str(), 1) == 0;
+  }();
+  (void)kLockDirSet;
   int pipefd[2];
   if (pipe2(pipefd, O_CLOEXEC) != 0) return {};
   const pid_t pid = fork();

@@ -34,11 +34,18 @@ struct Child {
   int stderr_fd{-1};
 };
 
-/// Starts `argv` (argv[0] is a path) with stdout to /dev/null and stderr to a pipe.
+/// Starts `argv` (argv[0] is a path) with stdout to /dev/null and stderr to a pipe, and
+/// $RUNTIME_DIRECTORY set to a scratch directory of this test process (the daemons' lock
+/// directory, see lcm.lock_dir).
 Child Spawn(const std::vector<std::string>& argv);
 /// Waits up to `timeout` for the child; returns its exit code, 128 + signal when killed by a
 /// signal, or -1 on timeout (the child is then killed). Appends its stderr to `*err`.
 int Wait(Child* child, std::chrono::milliseconds timeout, std::string* err);
+/// The command line of the daemon `exe` replaying `recording` in real time in a loop into
+/// `url` as camera `camera`, its instance lock in `lock_dir` (lcm.lock_dir).
+std::vector<std::string> LoopingDaemonArgv(const std::string& exe, const std::string& recording,
+                                           const std::string& url, const std::string& camera,
+                                           const std::string& lock_dir);
 /// Spawn + Wait.
 int Run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout, std::string* err);
 /// Appends whatever the running child has written to stderr so far to `*err` without
