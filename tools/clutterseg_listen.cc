@@ -28,128 +28,12 @@
 #include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/status_t.hpp"
 #include "clutterseg/version.h"
+#include "clutterseg/wire_check.hpp"
 
 namespace {
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop.store(true); }
-
-// A bounds check of LCM's wire format (big-endian; a nested struct carries no hash) that
-// walks a message and verifies that every string and array it declares fits in the bytes
-// that follow, before lcm-gen's decode allocates them. Trailing bytes are allowed.
-class WireCheck {
- public:
-  WireCheck(const uint8_t* data, size_t size) : data_(data), size_(size) {}
-
-  bool Skip(size_t n, const char* what) {
-    if (!ok_) return false;
-    if (n > size_ - pos_) return Bad(std::string(what) + " runs past the end of the message");
-    pos_ += n;
-    return true;
-  }
-  bool Int32(int32_t* value, const char* what) {
-    if (!Skip(4, what)) return false;
-    const uint8_t* p = data_ + pos_ - 4;
-    *value = static_cast<int32_t>((uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) |
-                                  (uint32_t{p[2]} << 8) | uint32_t{p[3]});
-    return true;
-  }
-  bool String(const char* what) {
-    int32_t len = 0;
-    if (!Int32(&len, what)) return false;
-    if (len < 1) return Bad(std::string(what) + " has length " + std::to_string(len));
-    return Skip(static_cast<size_t>(len), what);
-  }
-  // A count of elements of at least `min_bytes` each that must fit in what is left.
-  bool Count(int32_t* count, size_t min_bytes, const char* what) {
-    if (!Int32(count, what)) return false;
-    if (*count < 0 || static_cast<uint64_t>(*count) * min_bytes > size_ - pos_) {
-      return Bad(std::string(what) + " = " + std::to_string(*count) + " does not fit in the " +
-                 std::to_string(size_ - pos_) + " bytes left");
-    }
-    return true;
-  }
-  bool Strings(int32_t count, const char* what) {
-    for (int32_t i = 0; i < count; ++i) {
-      if (!String(what)) return false;
-    }
-    return ok_;
-  }
-  const std::string& problem() const { return problem_; }
-
- private:
-  bool Bad(std::string why) {
-    if (ok_) problem_ = std::move(why);
-    ok_ = false;
-    return false;
-  }
-  const uint8_t* data_;
-  size_t size_;
-  size_t pos_{0};
-  bool ok_{true};
-  std::string problem_;
-};
-
-// The walks below follow lcmtypes/clutterseg/*.lcm field by field; keep them in step with
-// the types (tests/daemon/label_bounds_test.cc publishes every type with all its arrays
-// filled and fails when a walk rejects a well-formed message).
-// Encoded sizes of the fixed-size structs and parts.
-constexpr size_t kIntrinsicsBytes = 4 + 4 + 4 * 8;
-constexpr size_t kPlaneBytes = 4 + 3 * 4 + 4 + 4 + 1;
-// object_t up to num_samples: geometry, support, colour, confidence, image box, track.
-constexpr size_t kObjectFixedBytes =
-    4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 + 3 + 4 + 4 * 4 + 8 + 4 + 4 + 1 + 1;
-constexpr size_t kLostTrackBytes = 8 + 4 + 4 + 4 + 1 + 4 + 5 * 3 * 4;
-
-// stage_times_t: num_stages, stage_names[], stage_ms[], total_ms.
-bool CheckStageTimes(WireCheck* w) {
-  int32_t n = 0;
-  return w->Count(&n, 5 + 4, "times.num_stages") && w->Strings(n, "times.stage_names") &&
-         w->Skip(static_cast<size_t>(n) * 4 + 4, "times.stage_ms");
-}
-
-std::string CheckObjects(const uint8_t* data, size_t size) {
-  WireCheck w(data, size);
-  int32_t n = 0;
-  int32_t objects = 0;
-  if (w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
-      w.Skip(kIntrinsicsBytes, "intrinsics") && w.Count(&n, kPlaneBytes, "num_planes") &&
-      w.Skip(static_cast<size_t>(n) * kPlaneBytes, "planes") &&
-      w.Count(&objects, kObjectFixedBytes + 4, "num_objects")) {
-    for (int32_t i = 0; i < objects; ++i) {
-      if (!w.Skip(kObjectFixedBytes, "object") || !w.Count(&n, 12, "object.num_samples") ||
-          !w.Skip(static_cast<size_t>(n) * 12, "object.samples")) {
-        break;
-      }
-    }
-  }
-  w.Count(&n, kLostTrackBytes, "num_lost_tracks") &&
-      w.Skip(static_cast<size_t>(n) * kLostTrackBytes, "lost_tracks") &&
-      w.Count(&n, 8, "num_ended_tracks") && w.Skip(static_cast<size_t>(n) * 8, "ended_track_ids") &&
-      w.Skip(1 + 4 + 4, "tracks_reset and counts") && CheckStageTimes(&w) &&
-      w.Skip(4 + 4 + 4, "times");
-  return w.problem();
-}
-
-std::string CheckLabels(const uint8_t* data, size_t size) {
-  WireCheck w(data, size);
-  int32_t n = 0;
-  w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
-      w.Skip(4 + 4 + 1, "size") && w.Count(&n, 1, "size") && w.Skip(static_cast<size_t>(n), "data");
-  return w.problem();
-}
-
-std::string CheckStatus(const uint8_t* data, size_t size) {
-  WireCheck w(data, size);
-  int32_t n = 0;
-  w.Skip(8, "utime") && w.String("camera_name") && w.String("source") && w.String("version") &&
-      w.Skip(8, "instance_id") && w.String("hostname") && w.Skip(4, "pid") &&
-      w.Skip(8 * 4, "rates") && w.Count(&n, 5 + 4 + 4, "num_stages") &&
-      w.Strings(n, "stage_names") &&
-      w.Skip(static_cast<size_t>(n) * 8 + 4 + 4 + 13 * 8 + 4 + 1, "counters") &&
-      w.String("device_state_name") && w.Skip(4, "reconnect_attempts") && w.String("last_error");
-  return w.problem();
-}
 
 struct Listener {
   std::string png_dir;
@@ -317,19 +201,19 @@ int main(int argc, char** argv) {
     bus->SubscribeRaw(
         objects_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
           listener.Receive(
-              channel, data, size, CheckObjects,
+              channel, data, size, clutterseg::wire::CheckObjects,
               [&](const clutterseg::objects_t& m) { listener.OnObjects(channel, m); }, &objects);
         });
     bus->SubscribeRaw(
         labels_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
           listener.Receive(
-              channel, data, size, CheckLabels,
+              channel, data, size, clutterseg::wire::CheckLabels,
               [&](const clutterseg::label_image_t& m) { listener.OnLabels(m); }, &labels);
         });
     bus->SubscribeRaw(
         status_channel, [&](std::string_view channel, const uint8_t* data, size_t size) {
           listener.Receive(
-              channel, data, size, CheckStatus,
+              channel, data, size, clutterseg::wire::CheckStatus,
               [&](const clutterseg::status_t& m) { listener.OnStatus(channel, m); }, &status);
         });
     signal(SIGINT, OnSignal);

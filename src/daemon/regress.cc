@@ -1,7 +1,9 @@
 #include "clutterseg/daemon/regress.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <map>
 #include <sstream>
@@ -12,9 +14,26 @@
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
+#include "clutterseg/wire_check.hpp"
 
 namespace clutterseg::daemon {
 namespace {
+
+// Decodes one event of a log after its bounds check (a corrupt log must not make lcm-gen's
+// decoder allocate what the message claims); false when either refuses it.
+template <typename Message>
+bool Decode(const lcm::LogEvent& ev, std::string (*check)(const uint8_t*, size_t), Message* msg) {
+  const auto* data = static_cast<const uint8_t*>(ev.data);
+  const size_t size = static_cast<size_t>(ev.datalen);
+  if (size < 8 || size > static_cast<size_t>(INT32_MAX) || !check(data + 8, size - 8).empty()) {
+    return false;
+  }
+  try {
+    return msg->decode(data, 0, static_cast<int>(size)) >= 0;
+  } catch (const std::length_error&) {  // lcm-gen's decoders throw on some malformed strings
+    return false;
+  }
+}
 
 struct RunFrames {
   std::map<int64_t, clutterseg::objects_t> objects;
@@ -28,13 +47,13 @@ RunFrames ReadRun(const std::string& path, const RegressOptions& o) {
   while (const lcm::LogEvent* ev = log.readNextEvent()) {
     if (ev->channel == o.objects_channel) {
       clutterseg::objects_t m;
-      if (m.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
+      if (!Decode(*ev, wire::CheckObjects, &m)) {
         throw std::runtime_error(path + ": undecodable objects_t on " + ev->channel);
       }
       run.objects[m.frame_seq] = std::move(m);
     } else if (ev->channel == o.labels_channel) {
       clutterseg::label_image_t m;
-      if (m.decode(ev->data, 0, static_cast<int>(ev->datalen)) < 0) {
+      if (!Decode(*ev, wire::CheckLabels, &m)) {
         throw std::runtime_error(path + ": undecodable label_image_t on " + ev->channel);
       }
       run.labels[m.frame_seq] = std::move(m);

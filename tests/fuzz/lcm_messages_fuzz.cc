@@ -1,5 +1,6 @@
 // libFuzzer target for what clutterseg-listen, clutterseg-regress and a consumer read from an
-// LCM log or the bus: the first input byte picks the parser, the rest is its input.
+// LCM log or the bus: the first input byte picks the parser, the rest is its input. Messages
+// go through their bounds check (clutterseg/wire_check.hpp) before decode, as they do there.
 //   0: objects_t::decode; 1: status_t::decode; 2: label_image_t::decode, then
 //   daemon::DecodeLabelImage (RLE / zlib); 3: daemon::ScanLcmLog on the bytes as a log file.
 // decode() returns a negative length (or throws std::length_error) for a malformed message,
@@ -19,6 +20,7 @@
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
+#include "clutterseg/wire_check.hpp"
 #include "tests/fuzz/fuzz_check.h"
 #include "tests/fuzz/memfd_input.h"
 
@@ -28,7 +30,11 @@ namespace {
 // lcm-gen's decoders throw std::length_error on some malformed strings (a length field of 0),
 // which every reader here catches (LcmBus, clutterseg-listen, clutterseg-regress): refused.
 template <typename Message>
-bool DecodeChecked(const uint8_t* data, size_t size, Message* msg) {
+bool DecodeChecked(const uint8_t* data, size_t size, Message* msg,
+                   std::string (*check)(const uint8_t*, size_t)) {
+  // What every reader here does first (clutterseg/wire_check.hpp): lcm-gen's decoders size
+  // arrays from the message's counts before they look at what follows.
+  if (size < 8 || !check(data + 8, size - 8).empty()) return false;
   int used = -1;
   try {
     used = msg->decode(data, 0, static_cast<int>(size));
@@ -54,17 +60,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   switch (which) {
     case 0: {
       clutterseg::objects_t msg;
-      DecodeChecked(data, size, &msg);
+      DecodeChecked(data, size, &msg, clutterseg::wire::CheckObjects);
       break;
     }
     case 1: {
       clutterseg::status_t msg;
-      DecodeChecked(data, size, &msg);
+      DecodeChecked(data, size, &msg, clutterseg::wire::CheckStatus);
       break;
     }
     case 2: {
       clutterseg::label_image_t msg;
-      if (!DecodeChecked(data, size, &msg)) break;
+      if (!DecodeChecked(data, size, &msg, clutterseg::wire::CheckLabels)) break;
       clutterseg::core::LabelImage labels;
       try {
         clutterseg::daemon::DecodeLabelImage(msg, &labels);
