@@ -1,6 +1,7 @@
 #include "clutterseg/daemon/instance_lock.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -36,8 +37,16 @@ std::string ReadHolder(int fd) {
   char buf[256] = {};
   const ssize_t n = pread(fd, buf, sizeof(buf) - 1, 0);
   std::string s = n > 0 ? std::string(buf, static_cast<size_t>(n)) : std::string();
-  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  s = s.substr(0, s.find('\n'));  // the first line: the tail of a longer old one may follow
+  while (!s.empty() && s.back() == ' ') s.pop_back();
   return s;
+}
+
+// True when the "pid host" line names a running process (a stale line of an earlier holder,
+// which has exited and so released the lock, names none).
+bool HolderAlive(const std::string& holder) {
+  const long pid = std::strtol(holder.c_str(), nullptr, 10);
+  return pid > 0 && (kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM);
 }
 
 }  // namespace
@@ -55,13 +64,6 @@ std::string DefaultLockDir() {
   return "/tmp/clutterseg-" + std::to_string(getuid());
 }
 
-bool UrlNeedsInstanceLock(const std::string& url) {
-  for (const char* scheme : {"udpm://", "mpudpm://", "tcpq://"}) {
-    if (url.rfind(scheme, 0) == 0) return true;
-  }
-  return false;
-}
-
 InstanceLock::InstanceLock(const std::string& dir, const std::string& camera_name)
     : path_((std::filesystem::path(dir) / (Sanitise(camera_name) + ".lock")).string()) {
   std::error_code ec;
@@ -76,10 +78,12 @@ InstanceLock::InstanceLock(const std::string& dir, const std::string& camera_nam
   if (flock(fd_, LOCK_EX | LOCK_NB) != 0) {
     const int err = errno;
     std::string holder;
-    // The holder writes its pid just after it took the lock: give it a moment to.
+    // The holder writes its pid just after it took the lock, over what an earlier holder of
+    // the file left: give it a moment, and take only the pid of a process that is alive.
     for (int i = 0; err == EWOULDBLOCK && holder.empty() && i < 50; ++i) {
       if (i > 0) std::this_thread::sleep_for(std::chrono::milliseconds(10));
       holder = ReadHolder(fd_);
+      if (!HolderAlive(holder)) holder.clear();
     }
     close(fd_);
     fd_ = -1;
@@ -96,8 +100,9 @@ InstanceLock::InstanceLock(const std::string& dir, const std::string& camera_nam
   const ProcessIdentity& me = ThisProcess();
   const std::string line = std::to_string(me.pid) + " " + me.hostname + "\n";
   // Only for the message of a second daemon: a failure to write costs nothing but the pid.
-  if (ftruncate(fd_, 0) == 0) {
-    [[maybe_unused]] const ssize_t n = pwrite(fd_, line.data(), line.size(), 0);
+  // Written over the old line, then cut to length, so that a reader never finds it empty.
+  if (pwrite(fd_, line.data(), line.size(), 0) == static_cast<ssize_t>(line.size())) {
+    [[maybe_unused]] const int rc = ftruncate(fd_, static_cast<off_t>(line.size()));
   }
 }
 

@@ -17,11 +17,6 @@ class InstanceLockHeld : public std::runtime_error {
 /// environment.
 std::string DefaultLockDir();
 
-/// Transports that other processes on this host can hear (udpm://, mpudpm://, tcpq://): two
-/// daemons of one camera name there would interleave. memq:// and file:// publish nowhere
-/// shared and take no lock. Thread-safety: pure function.
-bool UrlNeedsInstanceLock(const std::string& url);
-
 /// An advisory flock(2) on DIR/CAMERA.lock held for the life of the object (the kernel
 /// releases it on any exit, a crash included, so a stale file is harmless). The file holds
 /// the holder's pid and host for the message of the next one. Not copyable; movable is not

@@ -186,8 +186,9 @@ int Run(int argc, char** argv) {
   }
   // One daemon per camera name on this host, even when two start together: a lock taken
   // before anything is published and held until exit (the bus watch below finds other hosts).
+  // Only on a transport other processes can hear: memq:// and file:// publish nowhere shared.
   std::unique_ptr<InstanceLock> instance_lock;
-  if (cfg.lcm.check_instances && UrlNeedsInstanceLock(lcm_url)) {
+  if (cfg.lcm.check_instances && IsNetworkBus(lcm_url)) {
     const std::string dir = cfg.lcm.lock_dir.empty() ? DefaultLockDir() : cfg.lcm.lock_dir;
     try {
       instance_lock = std::make_unique<InstanceLock>(dir, cfg.capture.camera_name);
