@@ -162,8 +162,8 @@ DaemonConfig ParseConfig(const std::string& yaml_text, const std::string& origin
   return config;
 }
 
-DaemonConfig LoadConfig(const std::string& path) {
-  DaemonConfig config;
+DaemonConfig LoadConfig(const std::string& path, DaemonConfig base) {
+  DaemonConfig config = std::move(base);
   DaemonKeys().LoadYaml(path, &config);
   ValidateOrThrowConfig(config, path);
   return config;

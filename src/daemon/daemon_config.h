@@ -44,10 +44,11 @@ struct DaemonConfig {
   void ValidateOrThrow() const;
 };
 
-/// Reads and validates a YAML config file; keys absent from the file keep their defaults.
+/// Reads and validates a YAML config file; keys absent from the file keep their value in
+/// `base` (the built-in defaults unless the caller changed some, e.g. `clutterseg --default`).
 /// @throws ConfigError naming `path`, the line, the key path and the value on any problem
 /// (also: not a regular file, larger than 1 MiB, a duplicate key, a second document).
-DaemonConfig LoadConfig(const std::string& path);
+DaemonConfig LoadConfig(const std::string& path, DaemonConfig base = {});
 
 /// Parses YAML text (an empty document gives the defaults) and validates the result.
 /// `origin` names the text in error messages (usually the file name).

@@ -50,6 +50,7 @@ struct CommandLine {
   bool loop{false};
   bool print_config{false};
   std::vector<std::string> sets;
+  std::vector<std::string> defaults;
 };
 
 // Flushes standard output and checks that everything printed reached it (a full device, a
@@ -63,10 +64,18 @@ bool StdoutWritten(const std::string& what) {
   return false;
 }
 
-// The configuration: file (or defaults), then command-line options, then --set overrides.
-// @throws ConfigError.
+// The configuration: built-in defaults, then --default values, then the file, then
+// command-line options, then --set overrides. @throws ConfigError.
 DaemonConfig BuildConfig(const CommandLine& cl) {
-  DaemonConfig c = cl.config_path.empty() ? DaemonConfig{} : LoadConfig(cl.config_path);
+  DaemonConfig base;
+  for (const std::string& d : cl.defaults) {
+    try {
+      ApplyOverride(d, &base);
+    } catch (const ConfigError& e) {
+      throw ConfigError(std::string("--default: ") + e.what());
+    }
+  }
+  DaemonConfig c = cl.config_path.empty() ? std::move(base) : LoadConfig(cl.config_path, base);
   if (!cl.source.empty()) SetKey("source", cl.source, &c);
   if (!cl.speed.empty()) SetKey("speed", cl.speed, &c);
   if (!cl.lcm_url.empty()) SetKey("lcm.url", cl.lcm_url, &c);
@@ -150,6 +159,10 @@ int Run(int argc, char** argv) {
   app.add_option("--log-level", cl.log_level, "debug | info | warn | error");
   app.add_flag("--loop", cl.loop, "restart recordings at their end");
   app.add_option("--set", cl.sets, "override any config key: --set segmenter.planes.max_planes=4")
+      ->type_name("KEY=VALUE");
+  app.add_option("--default", cl.defaults,
+                 "a default value the --config file may override (--set overrides it): "
+                 "--default camera_name=left")
       ->type_name("KEY=VALUE");
   app.add_flag("--print-config", cl.print_config, "print the effective configuration and exit");
   app.set_version_flag("--version", std::string("clutterseg ") + kVersion);

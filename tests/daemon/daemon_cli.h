@@ -2,6 +2,8 @@
 
 // Command lines and output of the `clutterseg` process, for the tests that run it.
 
+#include <cstdint>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -24,6 +26,17 @@ inline std::string LastLine(const std::string& text) {
   const size_t start = text.rfind('\n', end);
   const size_t from = start == std::string::npos ? 0 : start + 1;
   return text.substr(from, end - from + 1);
+}
+
+/// The number before `label` in the daemon's final "done: ..." line of `err` (e.g. 42 for
+/// "42 published"), -1 when the line or the label is missing.
+inline int64_t DoneCount(const std::string& err, const std::string& label) {
+  const size_t done = err.rfind("info: done: ");
+  if (done == std::string::npos) return -1;
+  const std::string line = err.substr(done, err.find('\n', done) - done);
+  std::smatch m;
+  if (!std::regex_search(line, m, std::regex("(\\d+) " + label))) return -1;
+  return std::stoll(m[1]);
 }
 
 }  // namespace clutterseg::daemon::testutil

@@ -37,18 +37,8 @@ namespace {
 namespace fs = std::filesystem;
 using std::chrono::seconds;
 
+using testutil::DoneCount;
 using testutil::LastLine;
-
-// The number before `label` in the daemon's "done: ..." line (e.g. "42 published"), -1 when
-// the line or the label is missing.
-int64_t DoneCount(const std::string& err, const std::string& label) {
-  const size_t done = err.rfind("info: done: ");
-  if (done == std::string::npos) return -1;
-  const std::string line = err.substr(done, err.find('\n', done) - done);
-  std::smatch m;
-  if (!std::regex_search(line, m, std::regex("(\\d+) " + label))) return -1;
-  return std::stoll(m[1]);
-}
 
 // Writes `text` to `path`.
 void WriteTextFile(const std::string& path, const std::string& text) {

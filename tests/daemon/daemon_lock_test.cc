@@ -65,7 +65,8 @@ TEST_F(DaemonLock, SameCameraStartedTogetherRunsOnceAndPublishesOnce) {
     testutil::Child logger =
         testutil::Spawn(ns.Exec({"lcm-logger", std::string("--lcm-url=") + kUrl, "-f", log}));
     ASSERT_GT(logger.pid, 0);
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the logger subscribes
+    ASSERT_TRUE(testutil::WaitForMulticastMember(ns, "239.255.76.67", seconds(20)))
+        << "the logger never joined the group";
 
     // Back to back, no delay between them.
     testutil::Child a = testutil::Spawn(ns.Exec(Daemon("arm", lock_dir, kUrl, kFrames)));

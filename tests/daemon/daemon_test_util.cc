@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -244,6 +245,64 @@ std::vector<std::string> NetNamespace::Exec(const std::vector<std::string>& argv
   std::vector<std::string> out = {"/usr/sbin/ip", "netns", "exec", name_};
   out.insert(out.end(), argv.begin(), argv.end());
   return out;
+}
+
+LanSegment::LanSegment(int hosts) {
+  if (!bridge_.ok()) {
+    why_ = bridge_.why();
+    return;
+  }
+  const std::string lan = bridge_.name();
+  if (Shell("ip -n " + lan + " link add br0 type bridge mcast_snooping 0") != 0 ||
+      Shell("ip -n " + lan + " link set br0 up") != 0) {
+    why_ = "could not create the bridge";
+    return;
+  }
+  for (int i = 0; i < hosts; ++i) {
+    hosts_.push_back(std::make_unique<NetNamespace>(/*route=*/false));
+    const NetNamespace& h = *hosts_.back();
+    if (!h.ok()) {
+      why_ = h.why();
+      return;
+    }
+    const std::string port = "port" + std::to_string(i);
+    const std::string in_host = "ip -n " + h.name() + " ";
+    if (Shell(in_host + "link add eth0 type veth peer name " + port + " netns " + lan) != 0 ||
+        Shell("ip -n " + lan + " link set " + port + " master br0 up") != 0 ||
+        Shell(in_host + "addr add 10.231.0." + std::to_string(i + 1) + "/24 dev eth0") != 0 ||
+        Shell(in_host + "link set eth0 up") != 0 || Shell(in_host + "link set lo up") != 0 ||
+        Shell(in_host + "route add 224.0.0.0/4 dev eth0") != 0) {
+      why_ = "could not plug host " + std::to_string(i) + " into the bridge";
+      return;
+    }
+  }
+  ok_ = true;
+}
+
+LanSegment::~LanSegment() = default;  // deleting a namespace deletes its end of each veth
+
+bool WaitForMulticastMember(const NetNamespace& ns, const std::string& group,
+                            std::chrono::milliseconds timeout) {
+  // /proc/net/igmp lists each joined group as 8 hex digits of the address in host byte order
+  // (little-endian here): 239.255.76.67 is 434CFFEF.
+  unsigned a = 0, b = 0, c = 0, d = 0;
+  if (std::sscanf(group.c_str(), "%u.%u.%u.%u", &a, &b, &c, &d) != 4) return false;
+  char hex[9];
+  std::snprintf(hex, sizeof(hex), "%02X%02X%02X%02X", d & 0xff, c & 0xff, b & 0xff, a & 0xff);
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  const std::string cmd = "ip netns exec " + ns.name() + " cat /proc/net/igmp";
+  do {
+    std::string out;
+    if (FILE* f = popen(cmd.c_str(), "r")) {
+      char buf[4096];
+      size_t n;
+      while ((n = std::fread(buf, 1, sizeof(buf), f)) > 0) out.append(buf, n);
+      pclose(f);
+    }
+    if (out.find(hex) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  } while (std::chrono::steady_clock::now() < until);
+  return false;
 }
 
 }  // namespace clutterseg::daemon::testutil

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -98,5 +99,33 @@ class NetNamespace {
   bool ok_{false};
   std::string why_;
 };
+
+/// Hosts of one LAN, each a network namespace with an `eth0` (10.231.0.(i+1)/24, the
+/// multicast route 224.0.0.0/4 on it) plugged into one bridge that floods multicast (snooping
+/// off, as an unmanaged switch does), itself in a namespace of its own. Deleted by the
+/// destructor. ok() is false (and why() says why) when not root or a step fails.
+class LanSegment {
+ public:
+  explicit LanSegment(int hosts);
+  ~LanSegment();
+  LanSegment(const LanSegment&) = delete;
+  LanSegment& operator=(const LanSegment&) = delete;
+  bool ok() const { return ok_; }
+  const std::string& why() const { return why_; }
+  /// The namespace of host `i` (0 .. hosts - 1).
+  const NetNamespace& host(int i) const { return *hosts_[static_cast<size_t>(i)]; }
+
+ private:
+  NetNamespace bridge_{/*route=*/false};
+  std::vector<std::unique_ptr<NetNamespace>> hosts_;
+  bool ok_{false};
+  std::string why_;
+};
+
+/// Waits up to `timeout` until some socket of the namespace `ns` has joined the IPv4
+/// multicast `group` (dotted quad), as /proc/net/igmp inside it shows: a subscriber started
+/// there is then certain to receive what is sent to the group. False on timeout.
+bool WaitForMulticastMember(const NetNamespace& ns, const std::string& group,
+                            std::chrono::milliseconds timeout);
 
 }  // namespace clutterseg::daemon::testutil

@@ -63,7 +63,7 @@ p="$root$prefix"
 for f in bin/clutterseg bin/clutterseg-segment bin/clutterseg-listen bin/clutterseg-spy \
          include/clutterseg/pipeline/segmenter.h include/clutterseg/objects_t.hpp \
          include/clutterseg/label_image_codec.hpp share/clutterseg/lcmtypes/clutterseg/objects_t.lcm \
-         lib/systemd/system/clutterseg.service lib/udev/rules.d/50-clutterseg.rules; do
+         lib/systemd/system/clutterseg.service lib/systemd/system/clutterseg@.service lib/udev/rules.d/50-clutterseg.rules; do
   [ -e "$p/$f" ] || fail "$f not installed"
 done
 [ -f "$root/etc/clutterseg/clutterseg.yaml" ] || fail "/etc/clutterseg/clutterseg.yaml not installed"
@@ -131,14 +131,31 @@ if command -v javac > /dev/null && [ -f /usr/share/java/lcm.jar ]; then
   java -cp "/usr/share/java/lcm.jar:$jar:$work/java" DecodeLog "$log" || fail "java decode"
 fi
 
-# 5. The installed unit: ExecStart and the other paths must exist; verify a copy whose paths
-# point into the staging root (the unit itself names the final paths).
+# 5. The installed units: ExecStart and the other paths must exist; verify copies whose paths
+# point into the staging root (the units themselves name the final paths). The template runs
+# one camera per instance: instance NAME reads NAME.yaml and publishes camera NAME.
 unit="$p/lib/systemd/system/clutterseg.service"
+template="$p/lib/systemd/system/clutterseg@.service"
 grep -q "^ExecStart=$prefix/bin/clutterseg --config /etc/clutterseg/clutterseg.yaml" "$unit" ||
   fail "ExecStart of the unit: $(grep ExecStart "$unit")"
+grep -q "^ExecStart=$prefix/bin/clutterseg --config /etc/clutterseg/%i.yaml --default camera_name=%i " "$template" ||
+  fail "ExecStart of the template unit: $(grep ExecStart "$template")"
+# The instance's command line, %i expanded, gives the camera its name and the template's
+# defaults, and its own file overrides them.
+args=$(sed -n "s#^ExecStart=$prefix/bin/clutterseg ##p" "$template" | sed -e "s#%i#cell_left#g" \
+  -e "s#/etc/clutterseg/#$work/#g")
+printf 'processing:\n  pipeline_depth: 3\n' > "$work/cell_left.yaml"
+# shellcheck disable=SC2086  # the unit's arguments are words
+"$p/bin/clutterseg" $args --print-config > "$work/cell_left.txt" || fail "template instance --print-config"
+grep -q '^camera_name: cell_left$' "$work/cell_left.txt" || fail "template instance camera_name"
+grep -q '^  pipeline_depth: 3$' "$work/cell_left.txt" || fail "template instance: NAME.yaml not applied"
 if command -v systemd-analyze > /dev/null; then
-  sed -e "s#$prefix/bin/#$p/bin/#g" "$unit" > "$work/clutterseg.service"
-  systemd-analyze verify "$work/clutterseg.service" > "$work/verify.log" 2>&1 ||
-    { cat "$work/verify.log"; fail "systemd-analyze verify"; }
+  for u in "$unit" "$template"; do
+    name=$(basename "$u")
+    [ "$name" = "clutterseg@.service" ] && name=clutterseg@left.service
+    sed -e "s#$prefix/bin/#$p/bin/#g" "$u" > "$work/$name"
+    systemd-analyze verify "$work/$name" > "$work/verify.log" 2>&1 ||
+      { cat "$work/verify.log"; fail "systemd-analyze verify $name"; }
+  done
 fi
 echo "check_install $mode: ok"

@@ -51,31 +51,20 @@ for oni in "$@"; do
     end=$(date +%s.%N)
     "$listen" --lcm-url "file://$log?speed=0" > "$tmp/listen.txt" 2>&1 || true
     pngs=$( (find "$tmp/png" -name '*.png' 2> /dev/null || true) | wc -l)
-    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$tmp/listen.txt" "$warmup" "$pngs" <<'PY'
-import re, sys
-name, mode, start, end, rss_kb, listen, warmup, pngs = sys.argv[1:]
-seg, c2p, dropped, overlays = [], [], "?", ""
-for line in open(listen):
-    m = re.search(r"^CLUTTERSEG_OBJECTS .*segment ([\d.]+) ms, capture->publish ([\d.]+) ms", line)
-    if m:
-        seg.append(float(m.group(1)))
-        c2p.append(float(m.group(2)))
-    m = re.search(r"^CLUTTERSEG_STATUS .*dropped (\d+)", line)
-    if m:
-        dropped = m.group(1)
-    m = re.search(r"^CLUTTERSEG_STATUS .*overlays (\d+) written / (\d+) dropped", line)
-    if m and mode == "overlays":
-        overlays = "; overlays %s written, %s dropped, %s PNGs" % (m.group(1), m.group(2), pngs)
-def pct(v, q):  # nearest rank
-    v = sorted(v)
-    return v[max(0, min(len(v) - 1, int(-(-q * len(v) // 100)) - 1))] if v else float("nan")
-wall = float(end) - float(start)
-n = len(seg)
-seg, c2p = seg[int(warmup):], c2p[int(warmup):]
+    python3 - "$name" "$mode" "$start" "$end" "$(tail -1 "$tmp/rss")" "$pngs" \
+      "$(python3 tools/bench/listen_latency.py "$tmp/listen.txt" --warmup "$warmup" --json)" <<'PY'
+import json, sys
+name, mode, start, end, rss_kb, pngs, r = sys.argv[1:]
+r = json.loads(r)
+dropped = "?" if r["dropped"] is None else str(r["dropped"])
+if mode == "overlays" and r["overlays_written"] is not None:
+    dropped += "; overlays %d written, %d dropped, %s PNGs" % (
+        r["overlays_written"], r["overlays_dropped"], pngs)
+n = r["published"]
 print("| %s | %s | %d | %.1f | %.1f / %.1f | %.1f / %.1f | %s | %.0f |" % (
-    name, {"max": "speed max", "realtime": "30 Hz", "overlays": "30 Hz + PNGs"}[mode], n, n / wall,
-    pct(seg, 50), pct(seg, 99), pct(c2p, 50), pct(c2p, 99), dropped + overlays,
-    int(rss_kb) / 1024))
+    name, {"max": "speed max", "realtime": "30 Hz", "overlays": "30 Hz + PNGs"}[mode], n,
+    n / (float(end) - float(start)), r["seg_p50"], r["seg_p99"], r["c2p_p50"], r["c2p_p99"],
+    dropped, int(rss_kb) / 1024))
 PY
   done
 done

@@ -23,7 +23,7 @@
 #   share/clutterseg/lcmtypes/clutterseg/  the .lcm files
 #   share/clutterseg/config/               paper.yaml, previous-defaults.yaml (and the shipped defaults)
 #   /etc/clutterseg/clutterseg.yaml        the daemon's configuration (the prefix's sysconfdir)
-#   lib/systemd/system/clutterseg.service, lib/udev/rules.d/50-clutterseg.rules
+#   lib/systemd/system/clutterseg.service, clutterseg@.service, lib/udev/rules.d/50-clutterseg.rules
 include_guard(GLOBAL)
 include(GNUInstallDirs)
 include(CMakePackageConfigHelpers)
@@ -97,9 +97,29 @@ install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml"
 install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml" "${PROJECT_SOURCE_DIR}/config/paper.yaml"
               "${PROJECT_SOURCE_DIR}/config/previous-defaults.yaml"
         DESTINATION ${CMAKE_INSTALL_DATADIR}/clutterseg/config COMPONENT daemon)
+# One camera: clutterseg.service reads clutterseg.yaml.
+set(CLUTTERSEG_UNIT_DESCRIPTION "clutterseg RGB-D tabletop segmentation daemon (LCM publisher)")
+set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/clutterseg.yaml")
+string(JOIN "\n" CLUTTERSEG_UNIT_USAGE
+       "# This is clutterseg.service. The configuration is"
+       "# ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/clutterseg.yaml. Enable with"
+       "# `systemctl enable --now clutterseg`; after editing the file, `systemctl reload clutterseg`"
+       "# re-reads the segmentation parameters.")
 configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
                "${PROJECT_BINARY_DIR}/clutterseg.service" @ONLY)
-install(FILES "${PROJECT_BINARY_DIR}/clutterseg.service"
+# Several cameras: clutterseg@NAME.service reads NAME.yaml and publishes camera NAME unless
+# the file names another camera_name. The --default values are the settings measured for
+# three cameras on a 2-core host (docs/daemon.md); NAME.yaml overrides any of them.
+set(CLUTTERSEG_UNIT_DESCRIPTION "clutterseg segmentation daemon of camera %i (LCM publisher)")
+set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/%i.yaml --default camera_name=%i --default processing.threads=1")
+string(JOIN "\n" CLUTTERSEG_UNIT_USAGE
+       "# This is the template clutterseg@.service: instance NAME reads"
+       "# ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/NAME.yaml (give each its camera.serial)."
+       "# Enable with `systemctl enable --now clutterseg@left clutterseg@right`; after editing a"
+       "# file, `systemctl reload clutterseg@left` re-reads its segmentation parameters.")
+configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
+               "${PROJECT_BINARY_DIR}/clutterseg@.service" @ONLY)
+install(FILES "${PROJECT_BINARY_DIR}/clutterseg.service" "${PROJECT_BINARY_DIR}/clutterseg@.service"
         DESTINATION lib/systemd/system COMPONENT daemon)
 install(FILES "${PROJECT_SOURCE_DIR}/config/50-clutterseg.rules"
         DESTINATION lib/udev/rules.d COMPONENT daemon)
