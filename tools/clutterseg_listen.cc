@@ -56,6 +56,10 @@ struct Listener {
         static_cast<int>(channel.size()), channel.data(), static_cast<long long>(m->frame_seq),
         static_cast<long long>(m->utime), m->camera_name.c_str(), m->num_objects, m->num_planes,
         m->times.total_ms, m->capture_to_publish_ms);
+    const double* t = m->camera_translation;
+    const double* q = m->camera_rotation_xyzw;
+    std::printf("  frame %s, camera at (%.3f %.3f %.3f) m, rotation xyzw (%.4f %.4f %.4f %.4f)\n",
+                m->frame_id.c_str(), t[0], t[1], t[2], q[0], q[1], q[2], q[3]);
     for (const auto& p : m->planes) {
       std::printf("  plane %d%s n (%.3f %.3f %.3f) d %.3f m, %d points\n", p.id,
                   p.is_support ? " [support]" : "", p.normal[0], p.normal[1], p.normal[2], p.d,
@@ -68,6 +72,22 @@ struct Listener {
           o.id, o.num_points, o.centroid[0], o.centroid[1], o.centroid[2], o.obb_extents[0],
           o.obb_extents[1], o.obb_extents[2], o.support_plane_id, o.mean_color[0], o.mean_color[1],
           o.mean_color[2], o.confidence);
+      if (o.track_id >= 0) {
+        std::printf("    track %lld (%s, age %d frames)\n", static_cast<long long>(o.track_id),
+                    o.track_state == clutterseg::object_t::TRACK_CONFIRMED ? "confirmed" : "new",
+                    o.track_age_frames);
+      }
+      if (o.has_gravity_box) {
+        std::printf(
+            "    upright box: centre (%.3f %.3f %.3f) m, %.3f x %.3f x %.3f m, long side (%.3f "
+            "%.3f %.3f), up (%.3f %.3f %.3f), height %.3f m above plane %d\n",
+            o.gbox_center[0], o.gbox_center[1], o.gbox_center[2], o.gbox_extents[0],
+            o.gbox_extents[1], o.gbox_extents[2], o.gbox_axes[0][0], o.gbox_axes[0][1],
+            o.gbox_axes[0][2], o.gbox_axes[2][0], o.gbox_axes[2][1], o.gbox_axes[2][2], o.height_m,
+            o.support_plane_id);
+      } else {
+        std::printf("    upright box: none (no support plane)\n");
+      }
     }
     std::fflush(stdout);
     ++seen;

@@ -6,24 +6,20 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include "clutterseg/config/internal/yaml_file.h"
 #include "clutterseg/config/key_table.h"
 
 namespace clutterseg::config {
 namespace {
 
+constexpr const char* kKind = "camera_info";
+
 [[noreturn]] void Fail(const std::string& path, const std::string& what) {
-  throw ConfigError(path + ": camera_info: " + what);
+  internal::FailYamlFile(path, kKind, what);
 }
 
 double Number(const std::string& path, const YAML::Node& node, const std::string& field) {
-  if (!node || !node.IsScalar()) Fail(path, "'" + field + "' is missing or not a number");
-  try {
-    const double v = node.as<double>();
-    if (!std::isfinite(v)) Fail(path, "'" + field + "' = " + node.Scalar() + " is not finite");
-    return v;
-  } catch (const YAML::Exception&) {
-    Fail(path, "'" + field + "' = '" + node.Scalar() + "' is not a number");
-  }
+  return internal::YamlNumber(path, kKind, node, field);
 }
 
 int Dimension(const std::string& path, const YAML::Node& node, const std::string& field) {
@@ -37,20 +33,7 @@ int Dimension(const std::string& path, const YAML::Node& node, const std::string
 }  // namespace
 
 core::CameraIntrinsics ReadCameraInfoYaml(const std::string& path) {
-  const std::string text = internal::ReadConfigFile(path);
-  YAML::Node doc;
-  int second = 0;
-  try {
-    doc = YAML::Load(text);
-    // yaml-cpp's Load() reads the first document and drops the rest without a word.
-    second = internal::SecondYamlDocumentLine(text);
-  } catch (const YAML::Exception& e) {
-    Fail(path, "line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
-  }
-  if (second > 0) {
-    Fail(path, "line " + std::to_string(second) +
-                   ": a second YAML document; a camera_info file holds one");
-  }
+  const YAML::Node doc = internal::LoadYamlFile(path, kKind);
   if (!doc.IsMap()) Fail(path, "expected a mapping with image_width, image_height, camera_matrix");
   const YAML::Node matrix = doc["camera_matrix"];
   if (!matrix || !matrix.IsMap()) Fail(path, "'camera_matrix' is missing");

@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -36,6 +37,7 @@ struct LaneOutput {
 struct Daemon::Impl {
   Impl(const DaemonConfig& c, std::unique_ptr<core::FrameSource> s, LcmBus* b)
       : config((c.ValidateOrThrow(), c)),
+        extrinsics(LoadExtrinsics(c.camera)),
         source(std::move(s)),
         bus(b),
         queue(core::MakeFrameQueue(
@@ -57,9 +59,15 @@ struct Daemon::Impl {
                    const std::string* error) { Complete(lane, item, error); }) {
     if (config.overlay.enabled()) overlay = std::make_unique<OverlayWriter>(config.overlay);
     if (config.track_objects) tracker = std::make_unique<pipeline::Tracker>(config.tracker);
+    if (extrinsics) {
+      Log(LogLevel::kInfo, "objects in frame '" + extrinsics->parent_frame + "' (" +
+                               config.camera.extrinsics_file + ")");
+    }
   }
 
   const DaemonConfig config;
+  // camera.extrinsics_file: publish in its parent frame; unset = the camera frame.
+  const std::optional<core::Extrinsics> extrinsics;
   std::unique_ptr<core::FrameSource> source;
   LcmBus* bus;
   std::string source_description;
@@ -161,6 +169,9 @@ struct Daemon::Impl {
       SampleObjectPoints(lane.segmenter->working_cloud(), result.labels, config.lcm.object_points,
                          &m.objects);
     }
+    if (extrinsics) {
+      ToParentFrame(*extrinsics, lane.segmenter->working_cloud(), result.labels, &m.objects);
+    }
     m.has_labels = config.lcm.publish_labels;
     if (m.has_labels) {
       EncodeLabelImage(result.labels, info, config.lcm.label_compression, &m.labels);
@@ -255,6 +266,7 @@ struct Daemon::Impl {
       }
       tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking);
       ToTrackMessage(tracking, &out.messages.objects);
+      if (extrinsics) LostTracksToParentFrame(*extrinsics, &out.messages.objects);
     }
     if (overlay) {
       pipeline::OverlayObjectsFrom(lane.result->objects, &out.overlay.objects);

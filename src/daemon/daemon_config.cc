@@ -81,6 +81,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("camera.registration", &C::camera, &SourceParams::registration),
         MakeKey("camera.intrinsics_file", &C::camera, &SourceParams::intrinsics_file),
         MakeKey("camera.depth_scale_mm", &C::camera, &SourceParams::depth_scale_mm),
+        MakeKey("camera.extrinsics_file", &C::camera, &SourceParams::extrinsics_file),
         MakeKey("lcm.url", &C::lcm, &LcmPublisherParams::url),
         MakeKey("lcm.objects_channel", &C::lcm, &LcmPublisherParams::objects_channel),
         MakeKey("lcm.labels_channel", &C::lcm, &LcmPublisherParams::labels_channel),

@@ -3,7 +3,9 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 
@@ -23,6 +25,44 @@ void Copy3(const core::Vec3f& v, float* out) {
   out[0] = v.x;
   out[1] = v.y;
   out[2] = v.z;
+}
+
+core::Vec3f Vec(const float* v) { return core::Vec3f{v[0], v[1], v[2]}; }
+
+// p <- R p + t, in place.
+void ApplyInPlace(const core::RigidTransform& tf, float* p) { Copy3(tf.Apply(Vec(p)), p); }
+
+// v <- R v, in place (a direction).
+void RotateInPlace(const core::RigidTransform& tf, float* v) { Copy3(tf.Rotate(Vec(v)), v); }
+
+// The axis-aligned box around the eight transformed corners of [lo, hi], in place.
+void BoxInPlace(const core::RigidTransform& tf, float* lo, float* hi) {
+  float out_lo[3] = {std::numeric_limits<float>::max(), std::numeric_limits<float>::max(),
+                     std::numeric_limits<float>::max()};
+  float out_hi[3] = {std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(),
+                     std::numeric_limits<float>::lowest()};
+  for (int c = 0; c < 8; ++c) {
+    const core::Vec3f q = tf.Apply(core::Vec3f{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1],
+                                               (c & 4) ? hi[2] : lo[2]});
+    const float v[3] = {q.x, q.y, q.z};
+    for (int j = 0; j < 3; ++j) {
+      out_lo[j] = std::min(out_lo[j], v[j]);
+      out_hi[j] = std::max(out_hi[j], v[j]);
+    }
+  }
+  std::copy(out_lo, out_lo + 3, lo);
+  std::copy(out_hi, out_hi + 3, hi);
+}
+
+// The axis-aligned box around an oriented box (centre, unit axes, full extents), already in
+// the parent frame.
+void BoxAroundObb(const clutterseg::object_t& o, float* lo, float* hi) {
+  for (int j = 0; j < 3; ++j) {
+    float half = 0.f;
+    for (int a = 0; a < 3; ++a) half += 0.5f * o.obb_extents[a] * std::abs(o.obb_axes[a][j]);
+    lo[j] = o.obb_center[j] - half;
+    hi[j] = o.obb_center[j] + half;
+  }
 }
 
 void CopyIntrinsics(const core::CameraIntrinsics& k, clutterseg::intrinsics_t* out) {
@@ -49,6 +89,12 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
   msg->frame_seq = info.frame_seq;
   msg->camera_name = info.camera_name;
   CopyIntrinsics(info.intrinsics, &msg->intrinsics);
+  msg->frame_id = info.camera_name;
+  for (double& t : msg->camera_translation) t = 0.0;
+  msg->camera_rotation_xyzw[0] = 0.0;
+  msg->camera_rotation_xyzw[1] = 0.0;
+  msg->camera_rotation_xyzw[2] = 0.0;
+  msg->camera_rotation_xyzw[3] = 1.0;
 
   msg->num_planes = static_cast<int32_t>(result.planes.size());
   msg->planes.resize(result.planes.size());
@@ -76,6 +122,12 @@ void ToObjectsMessage(const pipeline::SegmentationResult& result, const FrameInf
     for (int a = 0; a < 3; ++a) Copy3(in.obb_axes[a], out.obb_axes[a]);
     Copy3(in.obb_extents, out.obb_extents);
     out.support_plane_id = in.support_plane_id;
+    out.has_gravity_box = in.has_gravity_box;
+    Copy3(in.gbox_center, out.gbox_center);
+    for (int a = 0; a < 3; ++a) Copy3(in.gbox_axes[a], out.gbox_axes[a]);
+    Copy3(in.gbox_extents, out.gbox_extents);
+    out.height_m = in.height_m;
+    out.bottom_m = in.bottom_m;
     out.mean_color[0] = in.mean_color.r;
     out.mean_color[1] = in.mean_color.g;
     out.mean_color[2] = in.mean_color.b;
@@ -207,6 +259,64 @@ void ToTrackMessage(const pipeline::TrackingResult& tracking, clutterseg::object
   msg->ended_track_ids.assign(tracking.ended_track_ids.begin(), tracking.ended_track_ids.end());
   msg->tracks_reset = tracking.reset;
   msg->tracker_ms = static_cast<float>(tracking.time_ms);
+}
+
+void ToParentFrame(const core::Extrinsics& extrinsics, const core::PointCloud& cloud,
+                   const core::LabelImage& labels, clutterseg::objects_t* msg) {
+  const core::RigidTransform tf = core::RigidTransform::Of(extrinsics);
+  msg->frame_id = extrinsics.parent_frame;
+  core::Extrinsics pose = extrinsics;
+  pose.Normalize();
+  std::copy(pose.translation_m, pose.translation_m + 3, msg->camera_translation);
+  std::copy(pose.rotation_xyzw, pose.rotation_xyzw + 4, msg->camera_rotation_xyzw);
+  for (clutterseg::plane_t& p : msg->planes) {
+    RotateInPlace(tf, p.normal);
+    p.d -= p.normal[0] * tf.t[0] + p.normal[1] * tf.t[1] + p.normal[2] * tf.t[2];
+  }
+  for (clutterseg::object_t& o : msg->objects) {
+    ApplyInPlace(tf, o.centroid);
+    ApplyInPlace(tf, o.obb_center);
+    for (auto& axis : o.obb_axes) RotateInPlace(tf, axis);
+    if (o.has_gravity_box) {
+      ApplyInPlace(tf, o.gbox_center);
+      for (auto& axis : o.gbox_axes) RotateInPlace(tf, axis);
+    }
+    for (auto& p : o.samples) ApplyInPlace(tf, p.data());
+  }
+  // Axis-aligned boxes from the points themselves, in the parent frame.
+  const size_t num_objects = msg->objects.size();
+  if (cloud.xyz.size() != labels.data.size()) {
+    for (clutterseg::object_t& o : msg->objects) BoxAroundObb(o, o.aabb_min, o.aabb_max);
+    return;
+  }
+  for (clutterseg::object_t& o : msg->objects) {
+    std::fill(o.aabb_min, o.aabb_min + 3, std::numeric_limits<float>::max());
+    std::fill(o.aabb_max, o.aabb_max + 3, std::numeric_limits<float>::lowest());
+  }
+  for (size_t i = 0; i < labels.data.size(); ++i) {
+    const uint32_t l = labels.data[i];
+    if (l == 0 || l > num_objects || !core::IsValid(cloud.xyz[i])) continue;
+    clutterseg::object_t& o = msg->objects[l - 1];
+    const core::Vec3f q = tf.Apply(cloud.xyz[i]);
+    o.aabb_min[0] = std::min(o.aabb_min[0], q.x);
+    o.aabb_min[1] = std::min(o.aabb_min[1], q.y);
+    o.aabb_min[2] = std::min(o.aabb_min[2], q.z);
+    o.aabb_max[0] = std::max(o.aabb_max[0], q.x);
+    o.aabb_max[1] = std::max(o.aabb_max[1], q.y);
+    o.aabb_max[2] = std::max(o.aabb_max[2], q.z);
+  }
+  for (clutterseg::object_t& o : msg->objects) {
+    if (o.aabb_min[0] > o.aabb_max[0]) BoxAroundObb(o, o.aabb_min, o.aabb_max);  // no point
+  }
+}
+
+void LostTracksToParentFrame(const core::Extrinsics& extrinsics, clutterseg::objects_t* msg) {
+  const core::RigidTransform tf = core::RigidTransform::Of(extrinsics);
+  for (clutterseg::lost_track_t& t : msg->lost_tracks) {
+    ApplyInPlace(tf, t.centroid);
+    BoxInPlace(tf, t.aabb_min, t.aabb_max);
+    BoxInPlace(tf, t.remembered_min, t.remembered_max);
+  }
 }
 
 void SampleObjectPoints(const core::PointCloud& cloud, const core::LabelImage& labels,

@@ -1,6 +1,11 @@
 #include "clutterseg/daemon/source_params.h"
 
+#include <filesystem>
+#include <stdexcept>
+
+#include "clutterseg/config/extrinsics.h"
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/io/extrinsics_json.h"
 
 namespace clutterseg::daemon {
 
@@ -10,6 +15,18 @@ void SourceParams::ValidateOrThrow() const {
   // checked by drivers::OpenNI2SourceOptions when the source is made.
   check.Require(depth_scale_mm > 0.0 && depth_scale_mm < 1000.0, "depth_scale_mm", depth_scale_mm,
                 "(0, 1000) mm per PNG unit");
+}
+
+std::optional<core::Extrinsics> LoadExtrinsics(const SourceParams& camera) {
+  if (camera.extrinsics_file.empty()) return std::nullopt;
+  try {
+    const std::filesystem::path ext = std::filesystem::path(camera.extrinsics_file).extension();
+    return ext == ".yaml" || ext == ".yml" ? config::ReadExtrinsicsYaml(camera.extrinsics_file)
+                                           : io::ReadExtrinsicsJson(camera.extrinsics_file);
+  } catch (const std::exception& e) {
+    throw std::invalid_argument("camera.extrinsics_file = '" + camera.extrinsics_file +
+                                "': " + e.what());
+  }
 }
 
 }  // namespace clutterseg::daemon

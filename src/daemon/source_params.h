@@ -1,6 +1,9 @@
 #pragma once
 
+#include <optional>
 #include <string>
+
+#include "clutterseg/core/extrinsics.h"
 
 namespace clutterseg::daemon {
 
@@ -30,9 +33,20 @@ struct SourceParams {
   /// camera.depth_scale_mm: millimetres per unit of a depth PNG: 1 for millimetre PNGs
   /// (Kinect / Xtion / RealSense exports), 0.2 for TUM RGB-D (value / 5000 = metres).
   double depth_scale_mm{1.0};
+  /// camera.extrinsics_file: the camera's pose in a parent frame (a robot's base frame, from a
+  /// hand-eye calibration): a JSON file {"parent_frame", "translation" [m], "rotation_xyzw"}
+  /// (io::ReadExtrinsicsJson) or the YAML of ROS hand-eye tools, tf `transform:` or
+  /// easy_handeye (*.yaml / *.yml, config::ReadExtrinsicsYaml). With it, every geometric field
+  /// of objects_t is published in that frame (docs/lcm.md). "" = the camera frame.
+  std::string extrinsics_file;
 
   /// @throws std::invalid_argument naming the key (`camera.<field>`) and value.
   void ValidateOrThrow() const;
 };
+
+/// The pose of camera.extrinsics_file (quaternion normalised), unset when it is "".
+/// @throws std::invalid_argument "camera.extrinsics_file = 'PATH': PATH: extrinsics: ..." naming
+/// the field when the file cannot be read or holds no usable pose (the daemon's exit code 2).
+std::optional<core::Extrinsics> LoadExtrinsics(const SourceParams& camera);
 
 }  // namespace clutterseg::daemon

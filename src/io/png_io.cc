@@ -17,13 +17,13 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
-#include <unordered_set>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 #include <sys/stat.h>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/io/internal/json_file.h"
 
 namespace clutterseg::io {
 namespace {
@@ -34,7 +34,6 @@ constexpr png_alloc_size_t kMaxChunkBytes = 8u << 20;
 // Deflate cannot expand by more than about 1032:1; a declared image larger than this factor
 // times the file size is refused before its buffer is allocated.
 constexpr size_t kMaxInflateRatio = 1100;
-constexpr size_t kMaxJsonBytes = 1u << 20;
 
 [[noreturn]] void Fail(const std::string& path, const std::string& what) {
   throw std::runtime_error(path + ": " + what);
@@ -234,82 +233,8 @@ void CheckWritable(const std::string& path, int width, int height, uint64_t byte
 }
 
 using Json = nlohmann::json;
-
-// Deepest nesting of arrays and objects an intrinsics file may have.
-constexpr int kMaxJsonDepth = 64;
-
-// nlohmann's message without its "[json.exception.<kind>.<id>] " and "parse error at line L,
-// column C: " prefixes (the position is given as ours).
-std::string_view JsonReason(const Json::exception& e) {
-  std::string_view what = e.what();
-  if (const size_t p = what.find("] "); p != std::string_view::npos) what.remove_prefix(p + 2);
-  if (what.starts_with("parse error")) {
-    if (const size_t p = what.find(": "); p != std::string_view::npos) what.remove_prefix(p + 2);
-  }
-  return what;
-}
-
-// "line L, column C" of the byte nlohmann's parse_error points at (1-based `byte`).
-std::string LineAndColumn(const std::string& text, size_t byte) {
-  const size_t at = std::min(byte > 0 ? byte - 1 : 0, text.size());
-  const size_t line = 1 + static_cast<size_t>(std::count(text.begin(), text.begin() + at, '\n'));
-  const size_t newline = at == 0 ? std::string::npos : text.rfind('\n', at - 1);
-  const size_t column = at - (newline == std::string::npos ? 0 : newline + 1) + 1;
-  return "line " + std::to_string(line) + ", column " + std::to_string(column);
-}
-
-// Parses `text`, the contents of `path`, as one JSON document (RFC 8259, UTF-8). The parser
-// callback adds what nlohmann leaves to us: a duplicate key in an object is refused (nlohmann
-// would keep the last one silently) and so is nesting deeper than kMaxJsonDepth.
-Json ParseJsonFile(const std::string& path, const std::string& text) {
-  std::vector<std::unordered_set<std::string>> keys;  // of each open array (unused) and object
-  auto check = [&](int depth, Json::parse_event_t event, Json& parsed) {
-    if (depth > kMaxJsonDepth) {
-      Fail(path,
-           "malformed JSON: nesting deeper than " + std::to_string(kMaxJsonDepth) + " levels");
-    }
-    switch (event) {
-      case Json::parse_event_t::object_start:
-      case Json::parse_event_t::array_start:
-        keys.emplace_back();
-        break;
-      case Json::parse_event_t::object_end:
-      case Json::parse_event_t::array_end:
-        keys.pop_back();
-        break;
-      case Json::parse_event_t::key: {
-        const std::string& key = parsed.get_ref<const std::string&>();
-        if (!keys.back().insert(key).second) {
-          Fail(path, "malformed JSON: duplicate key \"" + key + "\"");
-        }
-        break;
-      }
-      case Json::parse_event_t::value:
-        break;
-    }
-    return true;
-  };
-  try {
-    return Json::parse(text, check);
-  } catch (const Json::parse_error& e) {
-    Fail(path,
-         "malformed JSON: " + LineAndColumn(text, e.byte) + ": " + std::string(JsonReason(e)));
-  } catch (const Json::out_of_range& e) {  // a number beyond the range of double
-    Fail(path, "malformed JSON: number out of range: " + std::string(JsonReason(e)));
-  }
-}
-
-// The first of `keys` present in `obj`, which must be a number; nullopt when none is present.
-std::optional<double> FindNumber(const std::string& path, const Json& obj,
-                                 std::initializer_list<const char*> keys) {
-  for (const char* key : keys) {
-    const auto it = obj.find(key);
-    if (it == obj.end()) continue;
-    if (!it->is_number()) Fail(path, std::string("key '") + key + "' is not a number");
-    return it->get<double>();
-  }
-  return std::nullopt;
-}
+using internal::FindNumber;
+using internal::ParseJsonFile;
 
 int ToDimension(const std::string& path, const char* key, double v) {
   if (!(v >= 1.0 && v <= 16384.0) || std::floor(v) != v) {
@@ -504,21 +429,7 @@ void WriteDepthPng(const std::string& path, const core::DepthImage& image,
 }
 
 core::CameraIntrinsics ReadIntrinsicsJson(const std::string& path) {
-  FilePtr f(std::fopen(path.c_str(), "rb"));
-  if (f == nullptr) Fail(path, std::string("cannot open: ") + std::strerror(errno));
-  std::string text;
-  char buf[4096];
-  size_t got = 0;
-  while ((got = std::fread(buf, 1, sizeof buf, f.get())) > 0) {
-    text.append(buf, got);
-    if (text.size() > kMaxJsonBytes) {
-      Fail(path, "larger than " + std::to_string(kMaxJsonBytes) + " bytes; not an intrinsics file");
-    }
-  }
-  if (std::ferror(f.get()) != 0) Fail(path, "read error");
-  if (text.empty()) Fail(path, "empty file");
-
-  const Json doc = ParseJsonFile(path, text);
+  const Json doc = internal::ReadJsonFile(path, "an intrinsics file");
   if (!doc.is_object()) Fail(path, "top level is not a JSON object");
   const Json* obj = &doc;
   if (const auto camera = doc.find("camera"); camera != doc.end()) {

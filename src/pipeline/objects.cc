@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
@@ -35,8 +36,131 @@ struct ObjectExtractor::Frame {
 
 namespace {
 constexpr size_t kBandRows = 32;
+// Columns of the projection whose extreme points make up the hull (see objects.h).
+constexpr int kHullColumns = 512;
 
 core::Vec3f ToVec(const Eigen::Vector3f& v) { return core::Vec3f{v.x(), v.y(), v.z()}; }
+
+// A rectangle in the plane: unit axis (ax, ay) of its first side, the second side along
+// (-ay, ax), centre (cx, cy), full side lengths len0 >= len1.
+struct Rect2 {
+  float ax{1.f}, ay{0.f};
+  float cx{0.f}, cy{0.f};
+  float len0{0.f}, len1{0.f};
+};
+
+double Cross(const std::pair<float, float>& o, const std::pair<float, float>& a,
+             const std::pair<float, float>& b) {
+  return (static_cast<double>(a.first) - o.first) * (static_cast<double>(b.second) - o.second) -
+         (static_cast<double>(a.second) - o.second) * (static_cast<double>(b.first) - o.first);
+}
+
+// The minimum-area rectangle around `n` points (x, y interleaved at `xy`): the convex hull of
+// the lowest and highest point of each of kHullColumns columns (Andrew's monotone chain), then
+// for each hull edge the rectangle with a side along it; the smallest wins (the first on a
+// tie). `points` and `hull` are reused work buffers. O(n + h^2) for a hull of h vertices.
+Rect2 MinAreaRect(const float* xy, size_t n, std::vector<std::pair<float, float>>* points,
+                  std::vector<std::pair<float, float>>* hull, std::vector<float>* columns) {
+  Rect2 r;
+  if (n == 0) return r;
+  float xmin = xy[0], xmax = xy[0];
+  for (size_t i = 1; i < n; ++i) {
+    xmin = std::min(xmin, xy[2 * i]);
+    xmax = std::max(xmax, xy[2 * i]);
+  }
+  // Per column: x and y of its lowest point, x and y of its highest.
+  columns->assign(4 * kHullColumns, std::numeric_limits<float>::quiet_NaN());
+  const float scale = xmax > xmin ? static_cast<float>(kHullColumns) / (xmax - xmin) : 0.f;
+  float* col = columns->data();
+  for (size_t i = 0; i < n; ++i) {
+    const float x = xy[2 * i], y = xy[2 * i + 1];
+    const int c = std::min(kHullColumns - 1, static_cast<int>((x - xmin) * scale));
+    float* e = col + 4 * c;
+    if (!(y >= e[1])) {  // also the first point (NaN)
+      e[0] = x;
+      e[1] = y;
+    }
+    if (!(y <= e[3])) {
+      e[2] = x;
+      e[3] = y;
+    }
+  }
+  points->clear();
+  for (int c = 0; c < kHullColumns; ++c) {
+    const float* e = col + 4 * c;
+    if (std::isnan(e[1])) continue;
+    points->emplace_back(e[0], e[1]);
+    points->emplace_back(e[2], e[3]);
+  }
+  std::sort(points->begin(), points->end());
+  points->erase(std::unique(points->begin(), points->end()), points->end());
+  // Andrew's monotone chain: lower hull left to right, then upper hull right to left (CCW).
+  hull->clear();
+  const std::vector<std::pair<float, float>>& pts = *points;
+  if (pts.size() < 3) {
+    hull->assign(pts.begin(), pts.end());
+  } else {
+    for (size_t i = 0; i < pts.size(); ++i) {
+      while (hull->size() >= 2 && Cross((*hull)[hull->size() - 2], hull->back(), pts[i]) <= 0.0) {
+        hull->pop_back();
+      }
+      hull->push_back(pts[i]);
+    }
+    const size_t lower = hull->size() + 1;
+    for (size_t i = pts.size() - 1; i-- > 0;) {
+      while (hull->size() >= lower &&
+             Cross((*hull)[hull->size() - 2], hull->back(), pts[i]) <= 0.0) {
+        hull->pop_back();
+      }
+      hull->push_back(pts[i]);
+    }
+    hull->pop_back();  // the first point again
+  }
+  const std::vector<std::pair<float, float>>& h = *hull;
+  if (h.size() == 1) {
+    r.cx = h[0].first;
+    r.cy = h[0].second;
+    return r;
+  }
+  double best = std::numeric_limits<double>::max();
+  const size_t edges = h.size() == 2 ? 1 : h.size();
+  for (size_t i = 0; i < edges; ++i) {
+    const auto& a = h[i];
+    const auto& b = h[(i + 1) % h.size()];
+    double ux = static_cast<double>(b.first) - a.first, uy = static_cast<double>(b.second) - a.second;
+    const double len = std::hypot(ux, uy);
+    if (len == 0.0) continue;
+    ux /= len;
+    uy /= len;
+    double u0 = std::numeric_limits<double>::max(), u1 = -u0, v0 = u0, v1 = -u0;
+    for (const auto& p : h) {
+      const double pu = ux * p.first + uy * p.second;
+      const double pv = -uy * p.first + ux * p.second;
+      u0 = std::min(u0, pu);
+      u1 = std::max(u1, pu);
+      v0 = std::min(v0, pv);
+      v1 = std::max(v1, pv);
+    }
+    const double area = (u1 - u0) * (v1 - v0);
+    if (area < best) {
+      best = area;
+      const double mu = 0.5 * (u0 + u1), mv = 0.5 * (v0 + v1);
+      r.cx = static_cast<float>(ux * mu - uy * mv);
+      r.cy = static_cast<float>(uy * mu + ux * mv);
+      r.ax = static_cast<float>(ux);
+      r.ay = static_cast<float>(uy);
+      r.len0 = static_cast<float>(u1 - u0);
+      r.len1 = static_cast<float>(v1 - v0);
+    }
+  }
+  if (r.len0 < r.len1) {  // the first axis along the longer side
+    std::swap(r.len0, r.len1);
+    const float ax = r.ax;
+    r.ax = -r.ay;
+    r.ay = ax;
+  }
+  return r;
+}
 
 }  // namespace
 
@@ -107,6 +231,79 @@ void ObjectExtractor::AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba
   a.umax = std::max(a.umax, last);
   a.vmin = std::min(a.vmin, v);
   a.vmax = std::max(a.vmax, v);
+}
+
+void ObjectExtractor::SupportAndGravityBox(const std::vector<Plane>& planes, uint32_t k,
+                                           Object* o) {
+  const core::Vec3f* points = points_.data() + object_first_[k];
+  const size_t n = object_first_[k + 1] - object_first_[k];
+  if (n == 0) return;
+  const Eigen::Vector3f centroid(o->centroid.x, o->centroid.y, o->centroid.z);
+  // Support plane: a support plane the object stands on has the object on its camera side
+  // (positive signed distance of the centroid, normals point to the camera) and its lowest
+  // point nearly touches it (within 0.1 m). Pick the one nearest to the lowest point.
+  const Plane* support = nullptr;
+  Eigen::Vector3f up = Eigen::Vector3f::Zero();
+  float d = 0.f;
+  float best = std::numeric_limits<float>::max();
+  float bottom = 0.f, top = 0.f;
+  for (const Plane& pl : planes) {
+    if (!pl.is_support) continue;
+    const Eigen::Vector3f normal(pl.normal.x, pl.normal.y, pl.normal.z);
+    const float norm = normal.norm();
+    if (!(norm > 0.f)) continue;
+    const Eigen::Vector3f unit = normal / norm;
+    const float plane_d = pl.d / norm;
+    if (unit.dot(centroid) + plane_d <= 0.f) continue;  // the object is behind the plane
+    float lo = std::numeric_limits<float>::max(), hi = std::numeric_limits<float>::lowest();
+    for (size_t i = 0; i < n; ++i) {
+      const float h =
+          unit.x() * points[i].x + unit.y() * points[i].y + unit.z() * points[i].z + plane_d;
+      lo = std::min(lo, h);
+      hi = std::max(hi, h);
+    }
+    if (std::abs(lo) < best && std::abs(lo) < 0.1f) {
+      best = std::abs(lo);
+      support = &pl;
+      up = unit;
+      d = plane_d;
+      bottom = lo;
+      top = hi;
+    }
+  }
+  if (support == nullptr) return;
+  o->support_plane_id = static_cast<int32_t>(support->id);
+  // The plane frame: the centroid projected onto the plane, e1 the camera's x axis in the plane
+  // (its z axis for a plane facing along x), e2 = up x e1.
+  const Eigen::Vector3f origin = centroid - (up.dot(centroid) + d) * up;
+  const Eigen::Vector3f ref =
+      std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitZ();
+  const Eigen::Vector3f e1 = (ref - up.dot(ref) * up).normalized();
+  const Eigen::Vector3f e2 = up.cross(e1).normalized();
+  projected_.resize(2 * n);
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3f r = Eigen::Vector3f(points[i].x, points[i].y, points[i].z) - origin;
+    projected_[2 * i] = e1.dot(r);
+    projected_[2 * i + 1] = e2.dot(r);
+  }
+  const Rect2 rect = MinAreaRect(projected_.data(), n, &hull_points_, &hull_, &hull_scratch_);
+  // A deterministic sign: the first axis along +e1 (or +e2).
+  float ax = rect.ax, ay = rect.ay;
+  if (ax < 0.f || (ax == 0.f && ay < 0.f)) {
+    ax = -ax;
+    ay = -ay;
+  }
+  const Eigen::Vector3f a0 = (ax * e1 + ay * e2).normalized();
+  const Eigen::Vector3f a1 = up.cross(a0).normalized();
+  const float height = std::max(top, 0.f);
+  o->has_gravity_box = true;
+  o->gbox_axes[0] = ToVec(a0);
+  o->gbox_axes[1] = ToVec(a1);
+  o->gbox_axes[2] = ToVec(up);
+  o->gbox_center = ToVec(origin + rect.cx * e1 + rect.cy * e2 + 0.5f * height * up);
+  o->gbox_extents = core::Vec3f{rect.len0, rect.len1, height};
+  o->height_m = top;
+  o->bottom_m = bottom;
 }
 
 ObjectExtractor::ObjectExtractor(core::ThreadPool* pool) : pool_(pool) {}
@@ -200,10 +397,26 @@ void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationRes
     frames_[k].axes = ax;
     frames_[k].centroid = c.cast<float>();
   }
-  // Extents: minima and maxima, exact in any order.
+  // Where each object's points go in points_ (per object, per band in band order).
+  point_start_.assign(num_bands * num_objects, 0);
+  object_first_.assign(num_objects + 1, 0);
+  size_t num_points = 0;
+  for (uint32_t k = 0; k < num_objects; ++k) {
+    object_first_[k] = num_points;
+    for (size_t b = 0; b < num_bands; ++b) {
+      point_start_[b * num_objects + k] = num_points;
+      num_points += band_acc_[b * num_objects + k].n;
+    }
+  }
+  object_first_[num_objects] = num_points;
+  points_.resize(num_points);
+
+  // Extents: minima and maxima, exact in any order; each object's points copied into points_,
+  // each band into its own slots (the support planes and gravity boxes read them).
   band_frames_.assign(num_bands * num_objects, Frame{});
   core::ForChunks(pool, rows, kBandRows, [&](size_t row_begin, size_t row_end) {
-    Frame* local = &band_frames_[(row_begin / kBandRows) * num_objects];
+    const size_t band = row_begin / kBandRows;
+    Frame* local = &band_frames_[band * num_objects];
     const uint32_t count = num_objects;
     const uint32_t* label = labels.data.data();
     const core::Vec3f* xyz = cloud.xyz.data();
@@ -226,6 +439,10 @@ void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationRes
         }
         local[l - 1].lo = lo;
         local[l - 1].hi = hi;
+        size_t& next = point_start_[band * count + (l - 1)];
+        for (size_t k = i; k < run_end; ++k) {
+          if (core::IsValid(xyz[k])) points_[next++] = xyz[k];
+        }
       }
       i = run_end;
     }
@@ -258,27 +475,7 @@ void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationRes
     o.pixel_min_v = a.vmin;
     o.pixel_max_u = a.umax;
     o.pixel_max_v = a.vmax;
-    // Support plane: a support plane the object stands on has the object on its camera side
-    // (positive signed distance, normals point to the camera) and nearly touches it. Pick
-    // the one nearest to the object's lowest corner.
-    float best = std::numeric_limits<float>::max();
-    for (const Plane& pl : planes) {
-      if (!pl.is_support) continue;
-      const Eigen::Vector3f n(pl.normal.x, pl.normal.y, pl.normal.z);
-      // Minimum signed distance over the AABB corners approximates the lowest point.
-      float dmin = std::numeric_limits<float>::max();
-      for (int c = 0; c < 8; ++c) {
-        const Eigen::Vector3f corner((c & 1) ? a.max[0] : a.min[0], (c & 2) ? a.max[1] : a.min[1],
-                                     (c & 4) ? a.max[2] : a.min[2]);
-        dmin = std::min(dmin, n.dot(corner) + pl.d);
-      }
-      const float dc = n.dot(f.centroid) + pl.d;
-      if (dc <= 0.f) continue;  // the object is behind the plane
-      if (std::abs(dmin) < best && std::abs(dmin) < 0.1f) {
-        best = std::abs(dmin);
-        o.support_plane_id = static_cast<int32_t>(pl.id);
-      }
-    }
+    SupportAndGravityBox(planes, k, &o);
     // Confidence: small objects and objects with few points relative to their box are less
     // certain; a simple monotone score in 0..1.
     o.confidence = std::clamp(static_cast<float>(a.n) / 2000.f, 0.2f, 1.f);

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
@@ -10,11 +11,21 @@
 namespace clutterseg::pipeline {
 
 /// Computes the per-object statistics (point count, centroid, axis-aligned and oriented
-/// boxes, principal axes, mean colour, image bounding box, support plane) for the objects
-/// of the label image over the `cloud` it labels. The support plane of an object is
-/// the support plane nearest to its lowest axis-aligned-box corner, with the object on the
-/// plane's camera side, or -1. The pixel passes run over bands of rows on `pool` when one
-/// is given; the bands are fixed and summed in order, so the result does not depend on it.
+/// boxes, principal axes, mean colour, image bounding box, support plane, gravity-aligned box)
+/// for the objects of the label image over the `cloud` it labels, in the cloud's (camera)
+/// frame. The support plane of an object is the support plane nearest to its lowest point
+/// (within 0.1 m), with its centroid on the plane's camera side, or -1.
+///
+/// Gravity-aligned box of an object with a support plane: its points are projected onto the
+/// plane and the box's footprint is the minimum-area rectangle around them (rotating an edge
+/// of their convex hull: exact for the hull, and a box seen from a corner, whose visible
+/// faces project to an L, still gets its own edges, where principal axes in the plane would
+/// take the L's diagonal). The hull is taken over the extreme points of 512 columns of the
+/// projection, so the rectangle may fall short of a point by at most 1/512 of the object's
+/// width along the first plane axis. Its height is the highest point above the plane.
+///
+/// The pixel passes run over bands of rows on `pool` when one is given; the bands are fixed
+/// and summed in order, so the result does not depend on it.
 ///
 /// Thread-safety: Compute is not reentrant (it keeps work buffers, so steady-state frames do
 /// not allocate); distinct instances are independent.
@@ -35,12 +46,24 @@ class ObjectExtractor {
   core::ThreadPool* const pool_;
   struct Accumulator;
   struct Frame;
+  // The support plane of objects[k] and its gravity-aligned box, from points_.
+  void SupportAndGravityBox(const std::vector<Plane>& planes, uint32_t k, Object* o);
   static void AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba, int u0, int u1, int v,
                             Accumulator* out);
   std::vector<Accumulator> acc_;
   std::vector<Frame> frames_;
   std::vector<Accumulator> band_acc_;  // per band of rows, then per object
   std::vector<Frame> band_frames_;
+  // Each object's valid points (per object, per band in band order), where each band's part
+  // of an object goes next (per band, then per object), where each object's points start.
+  std::vector<core::Vec3f> points_;
+  std::vector<size_t> point_start_;
+  std::vector<size_t> object_first_;
+  // The gravity box of one object: its points projected onto its plane, the hull's work.
+  std::vector<float> projected_;
+  std::vector<float> hull_scratch_;
+  std::vector<std::pair<float, float>> hull_points_;
+  std::vector<std::pair<float, float>> hull_;
 };
 
 }  // namespace clutterseg::pipeline

@@ -30,6 +30,17 @@ struct Object {
   core::Vec3f obb_axes[3];       ///< unit principal axes, largest variance first, right-handed
   core::Vec3f obb_extents;       ///< full side lengths along obb_axes
   int32_t support_plane_id{-1};  ///< id of the plane it stands on, -1 when none
+  /// Gravity-aligned box, computed when the object has a support plane (otherwise false and
+  /// every gbox_* and height field zero): gbox_axes[2] is the plane's normal pointing up (away
+  /// from the plane, the object's side), gbox_axes[0] and [1] the sides of the minimum-area
+  /// rectangle around the object's points projected onto the plane ([0] the longer side,
+  /// right-handed); the box stands on the plane and reaches the object's highest point.
+  bool has_gravity_box{false};
+  core::Vec3f gbox_center;
+  core::Vec3f gbox_axes[3];
+  core::Vec3f gbox_extents;  ///< full side lengths along gbox_axes; [2] = height_m
+  float height_m{0.f};       ///< highest point above the support plane, metres
+  float bottom_m{0.f};       ///< lowest point above the support plane (< 0: below), metres
   core::Rgb8 mean_color;
   float confidence{1.f};                                                   ///< 0..1
   int32_t pixel_min_u{0}, pixel_min_v{0}, pixel_max_u{0}, pixel_max_v{0};  ///< image bbox

@@ -135,7 +135,8 @@ TEST(ListenBounds, HostileMessagesAreRejectedWithBoundedMemory) {
     clutterseg::objects_t o{};
     o.camera_name = std::string(1, 'c');
     b = Encode(o);
-    PutBe32(&b, 8 + 8 + 8 + 8 + 4 + 2 + 40, 100000000u);
+    // Hash, times, camera_name "c", intrinsics, frame_id "", the camera's pose.
+    PutBe32(&b, 8 + 8 + 8 + 8 + 4 + 2 + 40 + 4 + 1 + 7 * 8, 100000000u);
     bus.Publish("CLUTTERSEG_OBJECTS", b.data(), b.size());
     b = Encode(o);
     PutBe32(&b, 8 + 8 + 8 + 8, 0xffffffffu);
@@ -156,6 +157,7 @@ TEST(ListenBounds, HostileMessagesAreRejectedWithBoundedMemory) {
       good.planes.resize(1);
       good.num_objects = 2;
       good.objects.resize(2);
+      good.frame_id = std::string("base_link");
       good.objects[1].num_samples = 3;
       good.objects[1].samples.assign(3, std::vector<float>(3, 0.5f));
       good.num_lost_tracks = 1;

@@ -87,9 +87,11 @@ class WireCheck {
 // Encoded sizes of the fixed-size structs and parts.
 inline constexpr size_t kIntrinsicsBytes = 4 + 4 + 4 * 8;
 inline constexpr size_t kPlaneBytes = 4 + 3 * 4 + 4 + 4 + 1;
-// object_t up to num_samples: geometry, support, colour, confidence, image box, track.
-inline constexpr size_t kObjectFixedBytes =
-    4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 + 3 + 4 + 4 * 4 + 8 + 4 + 4 + 1 + 1;
+// object_t up to num_samples: geometry, support, gravity box, colour, confidence, image box,
+// track.
+inline constexpr size_t kObjectFixedBytes = 4 + 4 + 4 * 3 * 4 + 9 * 4 + 3 * 4 + 4 +
+                                            (1 + 3 * 4 + 9 * 4 + 3 * 4 + 4 + 4) + 3 + 4 + 4 * 4 +
+                                            8 + 4 + 4 + 1 + 1;
 inline constexpr size_t kLostTrackBytes = 8 + 4 + 4 + 4 + 1 + 4 + 5 * 3 * 4;
 
 // stage_times_t: num_stages, stage_names[], stage_ms[], total_ms.
@@ -105,7 +107,8 @@ inline std::string CheckObjects(const uint8_t* data, size_t size) {
   int32_t n = 0;
   int32_t objects = 0;
   if (w.Skip(8 + 8 + 8, "utime, device_utime and frame_seq") && w.String("camera_name") &&
-      w.Skip(kIntrinsicsBytes, "intrinsics") && w.Count(&n, kPlaneBytes, "num_planes") &&
+      w.Skip(kIntrinsicsBytes, "intrinsics") && w.String("frame_id") &&
+      w.Skip(3 * 8 + 4 * 8, "camera pose") && w.Count(&n, kPlaneBytes, "num_planes") &&
       w.Skip(static_cast<size_t>(n) * kPlaneBytes, "planes") &&
       w.Count(&objects, kObjectFixedBytes + 4, "num_objects")) {
     for (int32_t i = 0; i < objects; ++i) {
