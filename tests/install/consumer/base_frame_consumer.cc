@@ -21,7 +21,8 @@ struct Printer {
   void On(const lcm::ReceiveBuffer* rbuf, const std::string&) {
     // Check the declared sizes before decoding a message from a shared bus.
     const auto* data = static_cast<const uint8_t*>(rbuf->data);
-    if (rbuf->data_size < 8 || !clutterseg::wire::CheckObjects(data + 8, rbuf->data_size - 8).empty()) {
+    if (rbuf->data_size < 8 ||
+        !clutterseg::wire::CheckObjects(data + 8, rbuf->data_size - 8).empty()) {
       return;
     }
     clutterseg::objects_t m;
