@@ -87,8 +87,7 @@ core::Extrinsics ReadEasyHandeye(const std::string& path, const YAML::Node& doc)
   const char* parent_key = eye_on_hand ? "robot_effector_frame" : "robot_base_frame";
   const std::string parent_field = std::string("parameters.") + parent_key;
   e.parent_frame = FrameName(path, params, parent_key, parent_field);
-  e.child_frame =
-      FrameName(path, params, "tracking_base_frame", "parameters.tracking_base_frame");
+  e.child_frame = FrameName(path, params, "tracking_base_frame", "parameters.tracking_base_frame");
   if (const std::string problem =
           e.Problem("'transformation' (x, y, z)", "'transformation' (qx, qy, qz, qw)",
                     "'" + parent_field + "'");
@@ -111,8 +110,9 @@ core::Extrinsics ReadExtrinsicsYaml(const std::string& path) {
   } else if (doc["transformation"]) {
     e = ReadEasyHandeye(path, doc);
   } else {
-    Fail(path, "'transform' (tf: translation, rotation) or 'transformation' (easy_handeye: "
-               "x, y, z, qx, qy, qz, qw) is missing");
+    Fail(path,
+         "'transform' (tf: translation, rotation) or 'transformation' (easy_handeye: "
+         "x, y, z, qx, qy, qz, qw) is missing");
   }
   e.Normalize();
   return e;

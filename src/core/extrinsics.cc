@@ -30,9 +30,9 @@ std::string Extrinsics::Problem(const std::string& translation_field,
              " is not a finite number";
     }
   }
-  const double t = std::sqrt(translation_m[0] * translation_m[0] +
-                             translation_m[1] * translation_m[1] +
-                             translation_m[2] * translation_m[2]);
+  const double t =
+      std::sqrt(translation_m[0] * translation_m[0] + translation_m[1] * translation_m[1] +
+                translation_m[2] * translation_m[2]);
   if (t > kMaxTranslationM) {
     return translation_field + " is " + Number(t) + " m from the origin: expected at most " +
            Number(kMaxTranslationM) + " m (metres, not millimetres)";
@@ -42,8 +42,8 @@ std::string Extrinsics::Problem(const std::string& translation_field,
                 rotation_xyzw[2] * rotation_xyzw[2] + rotation_xyzw[3] * rotation_xyzw[3]);
   if (std::abs(norm - 1.0) > kMaxQuaternionNormError) {
     return rotation_field + " has norm " + Number(norm) +
-           ": not a unit quaternion (x, y, z, w; |norm - 1| <= " +
-           Number(kMaxQuaternionNormError) + ")";
+           ": not a unit quaternion (x, y, z, w; |norm - 1| <= " + Number(kMaxQuaternionNormError) +
+           ")";
   }
   if (parent_frame.empty()) return parent_field + " is missing or empty";
   return "";

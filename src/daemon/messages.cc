@@ -42,8 +42,8 @@ void BoxInPlace(const core::RigidTransform& tf, float* lo, float* hi) {
   float out_hi[3] = {std::numeric_limits<float>::lowest(), std::numeric_limits<float>::lowest(),
                      std::numeric_limits<float>::lowest()};
   for (int c = 0; c < 8; ++c) {
-    const core::Vec3f q = tf.Apply(core::Vec3f{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1],
-                                               (c & 4) ? hi[2] : lo[2]});
+    const core::Vec3f q = tf.Apply(
+        core::Vec3f{(c & 1) ? hi[0] : lo[0], (c & 2) ? hi[1] : lo[1], (c & 4) ? hi[2] : lo[2]});
     const float v[3] = {q.x, q.y, q.z};
     for (int j = 0; j < 3; ++j) {
       out_lo[j] = std::min(out_lo[j], v[j]);

@@ -127,7 +127,8 @@ Rect2 MinAreaRect(const float* xy, size_t n, std::vector<std::pair<float, float>
   for (size_t i = 0; i < edges; ++i) {
     const auto& a = h[i];
     const auto& b = h[(i + 1) % h.size()];
-    double ux = static_cast<double>(b.first) - a.first, uy = static_cast<double>(b.second) - a.second;
+    double ux = static_cast<double>(b.first) - a.first,
+           uy = static_cast<double>(b.second) - a.second;
     const double len = std::hypot(ux, uy);
     if (len == 0.0) continue;
     ux /= len;

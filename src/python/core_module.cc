@@ -661,6 +661,22 @@ using clutterseg::eval::ObjectScore;
 using clutterseg::pipeline::Object;
 using clutterseg::pipeline::Plane;
 
+namespace {
+
+// Three unit vectors as the rows of a numpy float64 (3, 3) array.
+py::array_t<double> Axes(const clutterseg::core::Vec3f (&axes)[3]) {
+  py::array_t<double> a({3, 3});
+  auto w = a.mutable_unchecked<2>();
+  for (int i = 0; i < 3; ++i) {
+    w(i, 0) = axes[i].x;
+    w(i, 1) = axes[i].y;
+    w(i, 2) = axes[i].z;
+  }
+  return a;
+}
+
+}  // namespace
+
 PYBIND11_MODULE(_core, m) {
   m.doc() =
       "The compiled part of clutterseg: segmentation of RGB-D frames into objects and support "
@@ -734,23 +750,28 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("obb_center", &py_cs::VecField<Object, &Object::obb_center>,
                              "oriented box centre, metres (3,)")
       .def_property_readonly(
-          "obb_axes",
-          [](const Object& o) {
-            py::array_t<double> a({3, 3});
-            auto w = a.mutable_unchecked<2>();
-            for (int i = 0; i < 3; ++i) {
-              w(i, 0) = o.obb_axes[i].x;
-              w(i, 1) = o.obb_axes[i].y;
-              w(i, 2) = o.obb_axes[i].z;
-            }
-            return a;
-          },
+          "obb_axes", [](const Object& o) { return Axes(o.obb_axes); },
           "oriented box axes, one unit vector per row, largest variance first, "
           "right-handed, numpy float64 (3, 3)")
       .def_property_readonly("obb_extents", &py_cs::VecField<Object, &Object::obb_extents>,
                              "full side lengths along obb_axes, metres (3,)")
       .def_readonly("support_plane_id", &Object::support_plane_id,
                     "id of the Plane it stands on, -1 when none")
+      .def_readonly("has_gravity_box", &Object::has_gravity_box,
+                    "True when the object has a support plane and so a gravity-aligned box")
+      .def_property_readonly("gbox_center", &py_cs::VecField<Object, &Object::gbox_center>,
+                             "gravity-aligned box centre, metres (3,)")
+      .def_property_readonly(
+          "gbox_axes", [](const Object& o) { return Axes(o.gbox_axes); },
+          "gravity-aligned box axes, one unit vector per row: the longer side of the minimum-area "
+          "footprint, the shorter, and up (the support plane's normal), numpy float64 (3, 3)")
+      .def_property_readonly("gbox_extents", &py_cs::VecField<Object, &Object::gbox_extents>,
+                             "full side lengths along gbox_axes, metres (3,); the box stands on "
+                             "the plane, [2] = height_m")
+      .def_readonly("height_m", &Object::height_m,
+                    "highest point above the support plane, metres (0 without one)")
+      .def_readonly("bottom_m", &Object::bottom_m,
+                    "lowest point above the support plane, metres (0 without one)")
       .def_property_readonly(
           "mean_color",
           [](const Object& o) {

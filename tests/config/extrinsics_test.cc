@@ -46,8 +46,7 @@ std::string Tf(const std::string& translation = "{x: 0.42, y: -0.1, z: 0.85}",
 }
 
 // easy_handeye's ~/.ros/easy_handeye/NAME.yaml (yaml.dump of HandeyeCalibration.to_dict).
-std::string EasyHandeye(const std::string& eye_on_hand = "false",
-                        const std::string& qw = "0.5") {
+std::string EasyHandeye(const std::string& eye_on_hand = "false", const std::string& qw = "0.5") {
   return "parameters:\n  eye_on_hand: " + eye_on_hand +
          "\n  freehand_robot_movement: false\n  move_group: manipulator\n"
          "  move_group_namespace: /\n  namespace: /my_eob_calib_eye_on_base/\n"
@@ -71,9 +70,10 @@ TEST(ExtrinsicsYaml, ReadsATfTransform) {
   for (double q : e.rotation_xyzw) norm += q * q;
   EXPECT_NEAR(norm, 1.0, 1e-12);
   // A top-level frame_id, as static transform files of some tools have it.
-  const core::Extrinsics flat = ReadExtrinsicsYaml(
-      Write("flat.yaml", "frame_id: world\ntransform:\n  translation: {x: 0, y: 0, z: 1}\n"
-                         "  rotation: {x: 0, y: 0, z: 0, w: 1}\n"));
+  const core::Extrinsics flat =
+      ReadExtrinsicsYaml(Write("flat.yaml",
+                               "frame_id: world\ntransform:\n  translation: {x: 0, y: 0, z: 1}\n"
+                               "  rotation: {x: 0, y: 0, z: 0, w: 1}\n"));
   EXPECT_EQ(flat.parent_frame, "world");
   EXPECT_EQ(flat.child_frame, "");
 }
@@ -131,7 +131,8 @@ TEST(ExtrinsicsYaml, RefusesEveryBadFileNamingTheField) {
        "qy: 0, qz: 0, qw: 1}\n",
        "'parameters.robot_base_frame' is missing or empty"},
       {"list.yaml", "- 1\n- 2\n", "expected a mapping"},
-      {"two_docs.yaml", Tf() + "---\n" + Tf(), "line 10: a second YAML document; an extrinsics file holds one"},
+      {"two_docs.yaml", Tf() + "---\n" + Tf(),
+       "line 10: a second YAML document; an extrinsics file holds one"},
       {"syntax.yaml", "transform: {translation: [\n", "line "},
   };
   for (const Case& c : cases) {

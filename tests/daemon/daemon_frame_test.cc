@@ -98,8 +98,14 @@ class DaemonFrame : public ::testing::Test {
   // Runs the daemon on the recording into `log`, with `extra` arguments; returns its exit code.
   static int RunDaemon(const std::string& log, const std::vector<std::string>& extra,
                        std::string* err) {
-    std::vector<std::string> argv = {CLUTTERSEG_DAEMON_EXE, "--source", oni_, "--speed", "max",
-                                     "--lcm-url", "file://" + log + "?mode=w", "--set",
+    std::vector<std::string> argv = {CLUTTERSEG_DAEMON_EXE,
+                                     "--source",
+                                     oni_,
+                                     "--speed",
+                                     "max",
+                                     "--lcm-url",
+                                     "file://" + log + "?mode=w",
+                                     "--set",
                                      "lcm.object_points=40"};
     argv.insert(argv.end(), extra.begin(), extra.end());
     return testutil::Run(argv, std::chrono::minutes(5), err);
@@ -160,8 +166,7 @@ TEST_F(DaemonFrame, ExtrinsicsPutEveryGeometricFieldInTheParentFrame) {
       for (int k = 0; k < 3; ++k) on[k] = -cp.d * cp.normal[k];
       double p[3];
       pose.Apply(on, p);
-      EXPECT_NEAR(bp.normal[0] * p[0] + bp.normal[1] * p[1] + bp.normal[2] * p[2] + bp.d, 0.0,
-                  1e-3)
+      EXPECT_NEAR(bp.normal[0] * p[0] + bp.normal[1] * p[1] + bp.normal[2] * p[2] + bp.d, 0.0, 1e-3)
           << at << " plane " << cp.id;
     }
     ASSERT_EQ(b.num_objects, c.num_objects) << at;
@@ -215,9 +220,8 @@ TEST_F(DaemonFrame, ExtrinsicsPutEveryGeometricFieldInTheParentFrame) {
           EXPECT_EQ(bo.gbox_extents[a], co.gbox_extents[a]);
         }
         EXPECT_EQ(bo.height_m, co.height_m);
-        const auto plane = std::find_if(b.planes.begin(), b.planes.end(), [&](const auto& p) {
-          return p.id == bo.support_plane_id;
-        });
+        const auto plane = std::find_if(b.planes.begin(), b.planes.end(),
+                                        [&](const auto& p) { return p.id == bo.support_plane_id; });
         ASSERT_NE(plane, b.planes.end()) << what;
         EXPECT_LT(AngleDegrees(bo.gbox_axes[2], plane->normal), 1.0) << what;
         EXPECT_GT(bo.height_m, 0.f) << what;
@@ -269,9 +273,9 @@ TEST_F(DaemonFrame, ABadExtrinsicsFileExitsTwoNamingTheFileAndField) {
          "  rotation: {x: 0, y: 0, z: 0.2, w: 1}\n";
   }
   std::string err;
-  EXPECT_EQ(RunDaemon((dir_ / "bad.lcmlog").string(), {"--set", "camera.extrinsics_file=" + path},
-                      &err),
-            kExitUsage);
+  EXPECT_EQ(
+      RunDaemon((dir_ / "bad.lcmlog").string(), {"--set", "camera.extrinsics_file=" + path}, &err),
+      kExitUsage);
   EXPECT_NE(err.find("camera.extrinsics_file = '" + path + "'"), std::string::npos) << err;
   EXPECT_NE(err.find("'transform.rotation' has norm"), std::string::npos) << err;
 }

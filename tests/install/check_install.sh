@@ -113,6 +113,21 @@ case "$loaded" in *"$build/openni2-recordings"*) fail "the installed daemon reac
 # 4. Python bindings (no lcm module) and Java bindings on that log.
 pydir=$(find "$p" -type d -name dist-packages | head -1)
 PYTHONPATH="$pydir" python3 "$src/tests/install/decode_log.py" "$log" || fail "python decode"
+# 4a. The same recording published in a robot's base frame (camera.extrinsics_file), read by
+# the C++ and Python consumers of docs/lcm.md.
+printf '{"parent_frame": "base_link", "translation": [0.6, 0.0, 0.9],\n "rotation_xyzw": [-0.9238795, 0.0, 0.0, 0.3826834]}\n' \
+  > "$work/hand_eye.json"
+base_log="$work/base.lcmlog"
+"$p/bin/clutterseg" --config "$root/etc/clutterseg/clutterseg.yaml" --source "$work/rec.oni" \
+  --speed max --lcm-url "file://$base_log?mode=w" --set "camera.extrinsics_file=$work/hand_eye.json" \
+  > "$work/daemon-base.out" 2>&1 || { tail -20 "$work/daemon-base.out"; fail "daemon with extrinsics"; }
+out=$("$work/consumer/base_frame_consumer" "file://$base_log?speed=0") ||
+  fail "C++ base-frame consumer: $out"
+echo "$out" | grep -q "in base_link: [1-9]" || fail "C++ base-frame consumer output: $out"
+echo "$out" | grep -q "upright box" || fail "C++ base-frame consumer: no upright box: $out"
+out=$(PYTHONPATH="$pydir" python3 "$src/tests/install/base_frame_consumer.py" "$base_log") ||
+  fail "python base-frame consumer: $out"
+echo "$out" | grep -q "in base_link: [1-9]" || fail "python base-frame consumer output: $out"
 # 4b. The Python module of the staged prefix segments a frame as the installed tool does.
 if [ -n "$pymodule" ]; then
   "$p/bin/clutterseg-synth" --out "$work/pysynth" --count 1 --seed 5 > /dev/null 2>&1 ||

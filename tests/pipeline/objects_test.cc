@@ -100,8 +100,8 @@ class GravityBox : public ::testing::Test {
     result_.labels.Reset(width, height, 0);
     for (size_t i = 0; i < world.size(); ++i) {
       const V c = camera_.Point(world[i]);
-      cloud_.xyz[i] = core::Vec3f{static_cast<float>(c.x), static_cast<float>(c.y),
-                                  static_cast<float>(c.z)};
+      cloud_.xyz[i] =
+          core::Vec3f{static_cast<float>(c.x), static_cast<float>(c.y), static_cast<float>(c.z)};
       result_.labels.data[i] = 1;
     }
     for (size_t i : {size_t{7}, size_t{1000}, size_t{2500}}) cloud_.xyz[i].x = core::kInvalidDepth;

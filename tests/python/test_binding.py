@@ -40,6 +40,11 @@ def test_organized_scene_matches_clutterseg_segment(synth_dir, work_dir, scene):
         assert ours.aabb_min == pytest.approx(theirs["aabb_min"], rel=1e-6)
         assert ours.obb_axes.shape == (3, 3)
         assert ours.support_plane_id == theirs["support_plane_id"]
+        assert ours.has_gravity_box == (ours.support_plane_id >= 0)
+        if ours.has_gravity_box:  # upright on its plane: the third axis is the plane's normal
+            plane = next(p for p in r.planes if p.id == ours.support_plane_id)
+            assert abs(float(np.dot(ours.gbox_axes[2], plane.normal))) > np.cos(np.radians(1.0))
+            assert ours.gbox_extents[2] == pytest.approx(ours.height_m) and ours.height_m > 0
     assert [p.id for p in r.planes] == [p["id"] for p in tool_json["planes"]]
     assert any(p.is_support for p in r.planes)
     assert r.num_valid_points == tool_json["num_valid_points"]

@@ -24,8 +24,7 @@ YAML::Node LoadYamlFile(const std::string& path, const std::string& kind) {
   if (second > 0) {
     FailYamlFile(path, kind,
                  "line " + std::to_string(second) + ": a second YAML document; " +
-                     (kind.find_first_of("aeiou") == 0 ? "an " : "a ") + kind +
-                     " file holds one");
+                     (kind.find_first_of("aeiou") == 0 ? "an " : "a ") + kind + " file holds one");
   }
   return doc;
 }

@@ -95,7 +95,7 @@ std::optional<double> FindNumber(const std::string& path, const Json& obj,
 
 Json ReadJsonFile(const std::string& path, const std::string& what) {
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"),
-                                                           &std::fclose);
+                                                          &std::fclose);
   if (f == nullptr) Fail(path, std::string("cannot open: ") + std::strerror(errno));
   std::string text;
   char buf[4096];
