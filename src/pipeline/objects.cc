@@ -57,8 +57,9 @@ double Cross(const std::pair<float, float>& o, const std::pair<float, float>& a,
 
 // The minimum-area rectangle around `n` points (x, y interleaved at `xy`): the convex hull of
 // the lowest and highest point of each of kHullColumns columns (Andrew's monotone chain), then
-// for each hull edge the rectangle with a side along it; the smallest wins (the first on a
-// tie). `points` and `hull` are reused work buffers. O(n + h^2) for a hull of h vertices.
+// for each hull edge the rectangle with a side along it (rotating calipers); the smallest wins
+// (the first on a tie). `points`, `hull` and `columns` are reused work buffers. O(n) for n
+// points, plus sorting the at most 2 * kHullColumns column extremes.
 Rect2 MinAreaRect(const float* xy, size_t n, std::vector<std::pair<float, float>>* points,
                   std::vector<std::pair<float, float>>* hull, std::vector<float>* columns) {
   Rect2 r;
@@ -122,26 +123,44 @@ Rect2 MinAreaRect(const float* xy, size_t n, std::vector<std::pair<float, float>
     r.cy = h[0].second;
     return r;
   }
+  // Rotating calipers: for each edge a -> b (u along it, v = u turned left, into the hull),
+  // the hull's extremes along u (lo, hi) and along v (far) only move forward around the hull.
+  const size_t m = h.size();
+  const size_t edges = m == 2 ? 1 : m;
+  const auto along = [&h](size_t i, double ux, double uy) {
+    return ux * h[i].first + uy * h[i].second;
+  };
+  size_t hi = 0, lo = 0, far = 0;
   double best = std::numeric_limits<double>::max();
-  const size_t edges = h.size() == 2 ? 1 : h.size();
   for (size_t i = 0; i < edges; ++i) {
     const auto& a = h[i];
-    const auto& b = h[(i + 1) % h.size()];
+    const auto& b = h[(i + 1) % m];
     double ux = static_cast<double>(b.first) - a.first,
            uy = static_cast<double>(b.second) - a.second;
     const double len = std::hypot(ux, uy);
     if (len == 0.0) continue;
     ux /= len;
     uy /= len;
-    double u0 = std::numeric_limits<double>::max(), u1 = -u0, v0 = u0, v1 = -u0;
-    for (const auto& p : h) {
-      const double pu = ux * p.first + uy * p.second;
-      const double pv = -uy * p.first + ux * p.second;
-      u0 = std::min(u0, pu);
-      u1 = std::max(u1, pu);
-      v0 = std::min(v0, pv);
-      v1 = std::max(v1, pv);
+    if (i == 0) {  // the first edge: full scans
+      for (size_t k = 1; k < m; ++k) {
+        if (along(k, ux, uy) > along(hi, ux, uy)) hi = k;
+        if (along(k, ux, uy) < along(lo, ux, uy)) lo = k;
+        if (along(k, -uy, ux) > along(far, -uy, ux)) far = k;
+      }
+    } else {
+      for (size_t step = 0; step < m && along((hi + 1) % m, ux, uy) >= along(hi, ux, uy); ++step) {
+        hi = (hi + 1) % m;
+      }
+      for (size_t step = 0; step < m && along((lo + 1) % m, ux, uy) <= along(lo, ux, uy); ++step) {
+        lo = (lo + 1) % m;
+      }
+      for (size_t step = 0; step < m && along((far + 1) % m, -uy, ux) >= along(far, -uy, ux);
+           ++step) {
+        far = (far + 1) % m;
+      }
     }
+    const double u0 = along(lo, ux, uy), u1 = along(hi, ux, uy);
+    const double v0 = along(i, -uy, ux), v1 = along(far, -uy, ux);
     const double area = (u1 - u0) * (v1 - v0);
     if (area < best) {
       best = area;

@@ -89,6 +89,11 @@ class GravityBox : public ::testing::Test {
         world.push_back(BoxPoint(-kLength / 2, b, z));
       }
     }
+    Load(world);
+  }
+
+  // The points `world` as one object of a cloud, and the table as its support plane.
+  void Load(const std::vector<V>& world) {
     // An organized-looking layout: 100 points a row (the extractor reads rows of labels);
     // the last row's tail is invalid, and 3 NaN points sit among the box's.
     const int width = 100;
@@ -105,6 +110,7 @@ class GravityBox : public ::testing::Test {
       result_.labels.data[i] = 1;
     }
     for (size_t i : {size_t{7}, size_t{1000}, size_t{2500}}) cloud_.xyz[i].x = core::kInvalidDepth;
+    result_.planes.clear();
     result_.width = width;
     result_.height = height;
     result_.objects.assign(1, Object{});
@@ -157,6 +163,42 @@ TEST_F(GravityBox, StandsUprightOnItsPlaneWithTheBoxsOwnSidesAndSize) {
   EXPECT_NEAR(o.gbox_center.x, center.x, 0.003);
   EXPECT_NEAR(o.gbox_center.y, center.y, 0.003);
   EXPECT_NEAR(o.gbox_center.z, center.z, 0.003);
+}
+
+// A can: its top and the half of its side the camera sees project onto a disk, whose smallest
+// rectangle is the square around it (the rectangle's hull has hundreds of vertices).
+TEST_F(GravityBox, ACylinderGetsTheSquareAroundItsDisk) {
+  std::vector<V> world;
+  const double radius = 0.04, height = 0.10;
+  for (double r = 0.0; r <= radius + 1e-9; r += 0.0015) {
+    const int around = std::max(1, static_cast<int>(2 * kPi * r / 0.0015));
+    for (int k = 0; k < around; ++k) {
+      const double a = 2 * kPi * k / around;
+      world.push_back({0.3 + r * std::cos(a), 0.2 + r * std::sin(a), height});
+    }
+  }
+  for (int k = 0; k < 400; ++k) {
+    const double a = 2 * kPi * k / 400;
+    for (double z = 0.003; z < height; z += 0.002) {
+      // The side facing the camera (at -x, -y).
+      if (std::cos(a) + std::sin(a) < 0.0) {
+        world.push_back({0.3 + radius * std::cos(a), 0.2 + radius * std::sin(a), z});
+      }
+    }
+  }
+  Load(world);
+  ObjectExtractor dut;
+  dut.Compute(cloud_, &result_);
+  const Object& o = result_.objects[0];
+  ASSERT_TRUE(o.has_gravity_box);
+  EXPECT_LT(Angle(Of(o.gbox_axes[2]), up_), kOneDegree);
+  EXPECT_NEAR(o.gbox_extents.x, 2 * radius, 0.002);
+  EXPECT_NEAR(o.gbox_extents.y, 2 * radius, 0.002);
+  EXPECT_NEAR(o.height_m, height, 0.002);
+  const V center = camera_.Point(V{0.3, 0.2, height / 2});
+  EXPECT_NEAR(o.gbox_center.x, center.x, 0.002);
+  EXPECT_NEAR(o.gbox_center.y, center.y, 0.002);
+  EXPECT_NEAR(o.gbox_center.z, center.z, 0.002);
 }
 
 TEST_F(GravityBox, SameBoxWhateverTheThreadCount) {
