@@ -12,7 +12,8 @@ namespace clutterseg::pipeline {
 /// The temporal depth filter of a camera's frame stream (docs/method.md, "Temporal
 /// coherence"). YAML section `segmenter.temporal`. The defaults come from the structured-light
 /// sensor model of src/synth (synth::SensorParams: axial sigma(z) = 1.2 mm + 1.9 mm
-/// (z - 0.4 m)^2, 1.9 mm at 1 m): the band is about three sigmas.
+/// (z - 0.4 m)^2, 1.9 mm at 1 m): the band is 3.75 sigmas, chosen on the tuning pile sequences
+/// among 1.6-4.8 sigmas (docs/results.md, "Temporal coherence").
 struct TemporalFilterParams {
   static constexpr std::string_view kSection = "segmenter.temporal";
 
@@ -26,9 +27,9 @@ struct TemporalFilterParams {
   /// A new depth that differs from the pixel's mean by more than the band resets the pixel to
   /// it (a change, shown at once); within the band it is averaged in. Band at 1 m depth,
   /// metres; it scales with depth squared like the sensor's noise...
-  float band_at_1m_m{0.0056f};
+  float band_at_1m_m{0.007f};
   /// ...and is never below this, metres (the sensor's noise floor near the camera).
-  float min_band_m{0.0036f};
+  float min_band_m{0.0045f};
   /// A pixel without a measurement (depth 0) shows its mean for up to this many frames in a
   /// row before it is a hole (0 = a hole is always a hole). Its mean is kept either way, so a
   /// measurement after a dropout that lies within the band continues the average.
