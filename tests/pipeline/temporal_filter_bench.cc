@@ -11,14 +11,13 @@
 #include "clutterseg/synth/random.h"
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/sequence.h"
+#include "tests/pipeline/tracking_sequences.h"
 
 namespace clutterseg::pipeline {
 namespace {
 
 std::vector<core::DepthImage> RenderedDepth(synth::Scenario scenario, int n) {
-  synth::SceneParams scene;
-  scene.camera_distance_min_m = 0.8;
-  scene.camera_distance_max_m = 1.1;
+  const synth::SceneParams scene = tracking_test::TrackingSceneParams();
   synth::SequenceParams seq;
   seq.scenario = scenario;
   seq.num_frames = n;

@@ -12,6 +12,7 @@
 #include "clutterseg/synth/random.h"
 #include "clutterseg/synth/renderer.h"
 #include "clutterseg/synth/sequence.h"
+#include "tests/pipeline/tracking_sequences.h"
 #include "tests/testing/expect_invalid_argument.h"
 
 namespace clutterseg::pipeline {
@@ -163,9 +164,7 @@ struct FilteredSequence {
 
 FilteredSequence RenderAndFilter(synth::Scenario scenario, int frames, int step, uint64_t seed,
                                  const TemporalFilterParams& params = {}) {
-  synth::SceneParams scene;
-  scene.camera_distance_min_m = 0.8;
-  scene.camera_distance_max_m = 1.1;
+  const synth::SceneParams scene = tracking_test::TrackingSceneParams();
   synth::SequenceParams seq;
   seq.scenario = scenario;
   seq.num_frames = frames;
