@@ -7,14 +7,17 @@
 // frame k is written beside it as <out>/frame_<k, 6 digits>.pcd (the replay's frame sequence
 // number), plus the manifest.
 //
-// With --scenario add|remove|add-remove|occluder|static each sequence is one scenario of
+// With --scenario add|remove|add-remove|occluder|static|piles each sequence is one scenario of
 // synth::GenerateScenarioSequence: every physical object keeps its label in every frame (the
-// occluder has a label of its own, in the manifest), so the frames can score tracking.
+// occluder has a label of its own, in the manifest), so the frames can score tracking. The
+// manifest gives every object's centroid and point count per frame; with --gt-labels-only the
+// ground truth of a frame is its label PNG alone (no PCD: long recordings stay small).
 //
 // Exit codes: 0 success, 1 I/O failure, 2 bad arguments.
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <ctime>
@@ -75,6 +78,7 @@ struct Options {
   int frames{10};
   std::string objects;
   bool png{false};
+  bool labels_only{false};
   bool no_noise{false};
   double noise_correlation_px{-1.0};  // < 0: the sensor default
   int width{640};
@@ -92,8 +96,10 @@ struct FrameRecord {
   uint64_t scene_seed{0};
   uint64_t noise_seed{0};
   std::vector<SceneObject> objects;
-  std::vector<int> visible_pixels;  // per object, labelled pixels with valid depth
-  uint32_t occluder_label{0};       // 0: no occluder
+  std::vector<int> visible_pixels;     // per object, labelled pixels with valid depth
+  std::vector<int> valid_points;       // per object, labelled points of finite xyz
+  std::vector<core::Vec3f> centroids;  // per object, mean of those points (camera frame, m)
+  uint32_t occluder_label{0};          // 0: no occluder
   int occluder_visible_pixels{0};
   std::vector<std::pair<std::string, std::string>> files;  // (key, file name)
 };
@@ -142,10 +148,11 @@ void WriteTextFile(const fs::path& path, const std::string& text) {
 }
 
 // Writes <stem>.pcd and, with PNGs, <stem>_depth.png, <stem>_color.png, <stem>_label.png
-// and intrinsics.json into one directory.
+// and intrinsics.json into one directory; with `labels_only` <stem>_label.png alone.
 class DirectorySink : public FrameSink {
  public:
-  DirectorySink(fs::path dir, bool png) : dir_(std::move(dir)), png_(png) {}
+  DirectorySink(fs::path dir, bool png, bool labels_only)
+      : dir_(std::move(dir)), png_(png), labels_only_(labels_only) {}
 
   void Begin(const core::CameraIntrinsics& k) override {
     if (!png_) return;
@@ -158,23 +165,27 @@ class DirectorySink : public FrameSink {
   }
 
   void Write(const RenderedFrame& frame, FrameRecord* record) override {
-    ToPointCloud(frame, &cloud_);
-    const std::string pcd = record->name + ".pcd";
-    io::WritePcd((dir_ / pcd).string(), cloud_, io::PcdEncoding::kBinary);
-    record->files.emplace_back("pcd", pcd);
-    if (!png_) return;
-    const std::string depth = record->name + "_depth.png";
-    const std::string color = record->name + "_color.png";
+    if (!labels_only_) {
+      ToPointCloud(frame, &cloud_);
+      const std::string pcd = record->name + ".pcd";
+      io::WritePcd((dir_ / pcd).string(), cloud_, io::PcdEncoding::kBinary);
+      record->files.emplace_back("pcd", pcd);
+    }
+    if (png_ && !labels_only_) {
+      const std::string depth = record->name + "_depth.png";
+      const std::string color = record->name + "_color.png";
+      io::WriteDepthPng((dir_ / depth).string(), frame.depth);
+      io::WriteColorPng((dir_ / color).string(), frame.color);
+      record->files.emplace_back("depth_png", depth);
+      record->files.emplace_back("color_png", color);
+    }
+    if (!png_ && !labels_only_) return;
     const std::string label = record->name + "_label.png";
-    io::WriteDepthPng((dir_ / depth).string(), frame.depth);
-    io::WriteColorPng((dir_ / color).string(), frame.color);
     label16_.Reset(frame.label.width, frame.label.height);
     for (size_t i = 0; i < frame.label.size(); ++i) {
       label16_.data[i] = static_cast<uint16_t>(std::min<uint32_t>(frame.label.data[i], 65535));
     }
     io::WriteDepthPng((dir_ / label).string(), label16_);
-    record->files.emplace_back("depth_png", depth);
-    record->files.emplace_back("color_png", color);
     record->files.emplace_back("label_png", label);
   }
 
@@ -183,6 +194,7 @@ class DirectorySink : public FrameSink {
  private:
   fs::path dir_;
   bool png_;
+  bool labels_only_;
   core::PointCloud cloud_;
   core::DepthImage label16_;
 };
@@ -287,8 +299,11 @@ std::string ManifestJson(const Options& opt, const core::CameraIntrinsics& k,
          << ", \"kind\": " << JsonString(ToString(o.kind))
          << ", \"placement\": " << JsonString(ToString(o.placement))
          << ", \"partner\": " << o.partner_label
-         << ", \"visible_pixels\": " << rec.visible_pixels[i] << ", \"color\": [" << int{o.color.r}
-         << ", " << int{o.color.g} << ", " << int{o.color.b} << "]}";
+         << ", \"visible_pixels\": " << rec.visible_pixels[i]
+         << ", \"valid_points\": " << rec.valid_points[i] << ", \"centroid\": ["
+         << rec.centroids[i].x << ", " << rec.centroids[i].y << ", " << rec.centroids[i].z
+         << "], \"color\": [" << int{o.color.r} << ", " << int{o.color.g} << ", " << int{o.color.b}
+         << "]}";
     }
     os << (rec.objects.empty() ? "]}" : "\n     ]}");
   }
@@ -316,10 +331,13 @@ int Run(int argc, char** argv) {
                  "table), remove (all objects, one removed every --step-frames), add-remove "
                  "(half of them, then one added or removed every --step-frames), occluder (an "
                  "occluder sweeps across the view once), static (nothing changes but the "
-                 "sensor noise); the scene holds the --objects count (its maximum)")
-      ->check(CLI::IsMember({"add", "remove", "add-remove", "occluder", "static"}));
+                 "sensor noise), piles (objects in touching piles placed one every "
+                 "--step-frames, an occluder's sweep, a static stretch, then removed one every "
+                 "--step-frames: (2 N + 2) x --step-frames frames for N objects); the scene "
+                 "holds the --objects count (its maximum)")
+      ->check(CLI::IsMember({"add", "remove", "add-remove", "occluder", "static", "piles"}));
   app.add_option("--step-frames", opt.step_frames,
-                 "--scenario add/remove/add-remove: frames between two changes")
+                 "--scenario add/remove/add-remove/piles: frames between two changes")
       ->check(CLI::Range(1, 10000));
   app.add_option("--occluder", opt.occluder,
                  "--scenario occluder: arm (a cylinder along the image vertical) or box")
@@ -340,6 +358,9 @@ int Run(int argc, char** argv) {
       ->check(CLI::Range(1, 10000));
   app.add_option("--objects", opt.objects, "object count range MIN:MAX (or N)");
   app.add_flag("--png", opt.png, "also write depth (16-bit mm), colour and label PNGs");
+  app.add_flag("--gt-labels-only", opt.labels_only,
+               "write each frame's label PNG (16-bit) and no PCD; the manifest's per-object "
+               "centroids and point counts are the rest of the ground truth");
   app.add_flag("--no-noise", opt.no_noise,
                "no random sensor noise or quantisation (shadows and grazing limits stay)");
   app.add_option("--noise-correlation", opt.noise_correlation_px,
@@ -366,6 +387,7 @@ int Run(int argc, char** argv) {
   if (opt.out_dir.empty() && opt.oni_path.empty()) {
     throw UsageError("one of --out DIR or --oni FILE is required");
   }
+  if (opt.labels_only && opt.out_dir.empty()) throw UsageError("--gt-labels-only needs --out DIR");
 #ifndef CLUTTERSEG_SYNTH_WITH_ONI
   if (!opt.oni_path.empty()) throw UsageError("--oni: built without the ONI writer");
 #endif
@@ -390,13 +412,14 @@ int Run(int argc, char** argv) {
       throw std::runtime_error("output path '" + dir.string() + "' exists and is not a directory");
     }
     fs::create_directories(dir);
-    sink = std::make_unique<DirectorySink>(dir, opt.png);
+    sink = std::make_unique<DirectorySink>(dir, opt.png, opt.labels_only);
   }
 #ifdef CLUTTERSEG_SYNTH_WITH_ONI
   if (!opt.oni_path.empty()) sink = std::make_unique<OniSink>(opt.oni_path, std::move(sink));
 #endif
   core::ThreadPool pool(opt.threads);
   RenderedFrame frame;
+  core::PointCloud cloud;
   std::vector<FrameRecord> records;
   double render_ms_total = 0.0;
   int rendered = 0;
@@ -455,6 +478,32 @@ int Run(int argc, char** argv) {
       }
       rec.visible_pixels.clear();
       for (const SceneObject& o : rec.objects) rec.visible_pixels.push_back(pixels[o.label]);
+      // Centroids as a scorer computes them from the PCD: labelled points of finite xyz.
+      ToPointCloud(frame, &cloud);
+      std::vector<int> valid(max_label + 1, 0);
+      std::vector<double> sums(3 * (static_cast<size_t>(max_label) + 1), 0.0);
+      for (size_t i = 0; i < cloud.size(); ++i) {
+        const uint32_t l = cloud.label[i];
+        const core::Vec3f& q = cloud.xyz[i];
+        if (l == 0 || l > max_label || !std::isfinite(q.x) || !std::isfinite(q.y) ||
+            !std::isfinite(q.z)) {
+          continue;
+        }
+        ++valid[l];
+        sums[3 * l] += q.x;
+        sums[3 * l + 1] += q.y;
+        sums[3 * l + 2] += q.z;
+      }
+      rec.valid_points.clear();
+      rec.centroids.clear();
+      for (const SceneObject& o : rec.objects) {
+        const int c = valid[o.label];
+        const double w = c > 0 ? 1.0 / c : 0.0;
+        rec.valid_points.push_back(c);
+        rec.centroids.push_back(core::Vec3f{static_cast<float>(sums[3 * o.label] * w),
+                                            static_cast<float>(sums[3 * o.label + 1] * w),
+                                            static_cast<float>(sums[3 * o.label + 2] * w)});
+      }
       if (rec.occluder_label != 0) rec.occluder_visible_pixels = pixels[rec.occluder_label];
       sink->Write(frame, &rec);
       if (opt.verbose) {

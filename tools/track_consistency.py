@@ -6,13 +6,15 @@ identities").
 Inputs: pairs of an LCM log the daemon wrote (`--lcm-url 'file:///abs/out.lcmlog?mode=w'`)
 and the ground-truth directory `clutterseg-synth --oni X.oni --out GTDIR` wrote for the same
 recording (frame_NNNNNN.pcd per recording frame, numbered like the replay's frame_seq, and
-scenes.json); several pairs are scored together (objects of different recordings, and of
-different scenes of one recording, are different objects).
+scenes.json; with `--gt-labels-only` frame_NNNNNN_label.png instead of the PCD, the centroids
+coming from scenes.json); several pairs are scored together (objects of different recordings,
+and of different scenes of one recording, are different objects).
 
 In every frame each ground-truth object (a label with at least --min-points points of finite
-xyz in the frame's PCD; the occluder named in scenes.json left out) is matched to the published
-object whose centroid is nearest to its centroid, when that is at most --match-distance away
-(several ground-truth objects may match the same published object). Per object and overall:
+xyz in the frame's PCD, or as many `valid_points` in scenes.json; the occluder named in
+scenes.json left out) is matched to the published object whose centroid is nearest to its
+centroid, when that is at most --match-distance away (several ground-truth objects may match
+the same published object). Per object and overall:
 
 - identity consistency: the share of its matched frames carrying its most frequent id (ties:
   the id matched first); overall, pooled over objects (sum of those frames / sum of matched);
@@ -20,7 +22,17 @@ object whose centroid is nearest to its centroid, when that is at most --match-d
 - coverage: matched frames / visible frames;
 - id reuse: over published ids, (distinct ground-truth objects matched - 1), summed;
 - flicker: among consecutive frame pairs whose ground-truth object set is the same and has
-  been for --settle-frames frames before, the share whose published id set differs.
+  been for --settle-frames frames before, the share whose published id set differs;
+- partition flicker (independent of the ids; needs the label images the daemon publishes on
+  --labels-channel, lcm.publish_labels, on by default): among consecutive frame pairs of a
+  static scene (the ground-truth object set the same and for --settle-frames frames before,
+  no occluder pixel in either frame), the number and share whose partition differs. A frame's
+  partition of the ground-truth objects: each object's dominant published segment (the one
+  holding most of its pixels, or none when most are background), which objects share it
+  (merged), and how many published segments each object dominates (split), plus the number
+  of segments lying mostly on the background. Noise moving pixels along a boundary does not
+  change it; a boundary that opens or closes, a piece that splits off, an object that drops
+  out of the segmentation do.
 
 Three kinds of id are scored, as tests/pipeline/tracker_report does:
   label  - object_t.id, each frame's label value (what a consumer had without the tracker)
@@ -30,6 +42,7 @@ Three kinds of id are scored, as tests/pipeline/tracker_report does:
 
 Usage:
   tools/track_consistency.py LOG GTDIR [LOG GTDIR ...] [--channel CLUTTERSEG_OBJECTS]
+      [--labels-channel CLUTTERSEG_LABELS]
       [--match-distance 0.03] [--min-points 200] [--settle-frames 2]
       [--objects tracks|shown|label|none] [--min-consistency X] [--bindings DIR]
 
@@ -38,16 +51,22 @@ it), 1 below --min-consistency, 2 bad input (no frames in common, unreadable fil
 
 Standard library only, plus the generated clutterseg Python package (found on sys.path, in
 --bindings DIR, or in build/*/lcmtypes/python of this repository). PCD files may be ascii,
-binary or binary_compressed (LZF, decompressed here); clutterseg-synth writes binary.
+binary or binary_compressed (LZF, decompressed here); clutterseg-synth writes binary. Label
+PNGs are 16-bit greyscale as clutterseg-synth writes them (decoded here with zlib).
 """
 import argparse
+import array
 import glob
+import heapq
 import json
 import math
 import os
+import re
 import struct
 import sys
-from collections import OrderedDict
+import zlib
+from collections import Counter, OrderedDict
+from itertools import accumulate
 
 ID_KINDS = ("label", "tracks", "shown")
 
@@ -129,8 +148,31 @@ def lzf_decompress(src, out_len):
 
 
 def read_pcd_label_centroids(path, min_points):
-    """{label: (x, y, z, count)} over the points of `path` with a label >= 1 and finite xyz,
-    for labels with at least `min_points` such points."""
+    """({label: (x, y, z, count)} over the points of `path` with a label >= 1 and finite xyz,
+    for labels with at least `min_points` such points; the labels of all points)."""
+    labels, xs, ys, zs = read_pcd_columns(path)
+    sums = {}
+    isfinite = math.isfinite
+    for i, lab in enumerate(labels):
+        if lab <= 0:
+            continue
+        x, y, z = xs[i], ys[i], zs[i]
+        if not (isfinite(x) and isfinite(y) and isfinite(z)):
+            continue
+        s = sums.get(lab)
+        if s is None:
+            sums[lab] = [x, y, z, 1]
+        else:
+            s[0] += x
+            s[1] += y
+            s[2] += z
+            s[3] += 1
+    return ({lab: (s[0] / s[3], s[1] / s[3], s[2] / s[3], s[3])
+             for lab, s in sums.items() if s[3] >= min_points}, labels)
+
+
+def read_pcd_columns(path):
+    """(label, x, y, z) sequences of the points of the PCD file `path`."""
     with open(path, "rb") as f:
         blob = f.read()
     header, pos = {}, 0
@@ -210,47 +252,273 @@ def read_pcd_label_centroids(path, min_points):
         labels, xs, ys, zs = planes["label"], planes["x"], planes["y"], planes["z"]
     else:
         raise ValueError("%s: unknown DATA encoding %s" % (path, encoding))
+    return labels, xs, ys, zs
 
-    sums = {}
-    isfinite = math.isfinite
-    for i, lab in enumerate(labels):
-        if lab <= 0:
-            continue
-        x, y, z = xs[i], ys[i], zs[i]
-        if not (isfinite(x) and isfinite(y) and isfinite(z)):
-            continue
-        s = sums.get(lab)
-        if s is None:
-            sums[lab] = [x, y, z, 1]
+
+def _paeth(a, b, c):
+    p = a + b - c
+    pa, pb, pc = abs(p - a), abs(p - b), abs(p - c)
+    return a if pa <= pb and pa <= pc else (b if pb <= pc else c)
+
+
+def read_png_label_runs(path):
+    """runs_of the pixels of a 16-bit greyscale PNG (a clutterseg-synth label PNG). Fast path
+    for what clutterseg-synth writes (every row Sub-filtered, every label below 256): only the
+    non-zero filtered bytes, the label changes, are visited."""
+    width, height, raw = _png_image(path)
+    row_bytes = 2 * width
+    stride = row_bytes + 1
+    if raw[0::stride] == b"\x01" * height:
+        body = b"".join(raw[v * stride + 1:(v + 1) * stride] for v in range(height))
+        if body[0::2].count(0) == width * height:  # high bytes (PNG is big-endian) all 0
+            lo = body[1::2]
+            n = width * height
+            runs, cur, start = [], 0, 0
+            events = heapq.merge(range(0, n, width), (m.start() for m in _NONZERO.finditer(lo)))
+            last = -1
+            for k in events:
+                if k == last:
+                    continue
+                last = k
+                new = lo[k] if k % width == 0 else (cur + lo[k]) & 255
+                if new != cur:
+                    if k > start:
+                        runs.append((cur, k - start))
+                    cur, start = new, k
+            runs.append((cur, n - start))
+            return runs
+    return runs_of(read_png_labels(path))
+
+
+def _png_image(path):
+    """(width, height, the filtered rows) of a 16-bit greyscale PNG without interlacing."""
+    with open(path, "rb") as f:
+        blob = f.read()
+    if blob[:8] != b"\x89PNG\r\n\x1a\n":
+        raise ValueError("%s: not a PNG file" % path)
+    pos, idat, width = 8, [], None
+    while pos + 8 <= len(blob):
+        length, kind = struct.unpack_from(">I4s", blob, pos)
+        body = blob[pos + 8:pos + 8 + length]
+        pos += 12 + length
+        if kind == b"IHDR":
+            width, height, depth, colour, _, _, interlace = struct.unpack(">IIBBBBB", body)
+            if depth != 16 or colour != 0 or interlace != 0:
+                raise ValueError("%s: not a 16-bit greyscale PNG without interlacing" % path)
+        elif kind == b"IDAT":
+            idat.append(body)
+        elif kind == b"IEND":
+            break
+    if width is None:
+        raise ValueError("%s: no IHDR chunk" % path)
+    raw = zlib.decompress(b"".join(idat))
+    if len(raw) != (2 * width + 1) * height:
+        raise ValueError("%s: %d image bytes, %d expected" % (path, len(raw),
+                                                             (2 * width + 1) * height))
+    return width, height, raw
+
+
+def read_png_labels(path):
+    """The pixels of a 16-bit greyscale PNG (a clutterseg-synth label PNG) as array('H'),
+    row-major."""
+    width, height, raw = _png_image(path)
+    row_bytes = 2 * width
+    out = bytearray(row_bytes * height)
+    prev = bytearray(row_bytes)
+    mask = (255).__and__
+    for v in range(height):
+        start = v * (row_bytes + 1)
+        kind, row = raw[start], bytearray(raw[start + 1:start + 1 + row_bytes])
+        if kind == 1:  # Sub, what clutterseg writes: a running sum per byte of the pixel
+            row[0::2] = bytes(map(mask, accumulate(row[0::2])))
+            row[1::2] = bytes(map(mask, accumulate(row[1::2])))
+        elif kind == 2:  # Up
+            row = bytearray(map(mask, map(int.__add__, row, prev)))
+        elif kind in (3, 4):  # Average, Paeth
+            for i in range(row_bytes):
+                a = row[i - 2] if i >= 2 else 0
+                b = prev[i]
+                c = prev[i - 2] if i >= 2 else 0
+                row[i] = (row[i] + ((a + b) >> 1 if kind == 3 else _paeth(a, b, c))) & 255
+        elif kind != 0:
+            raise ValueError("%s: unknown PNG filter %d" % (path, kind))
+        out[v * row_bytes:(v + 1) * row_bytes] = row
+        prev = row
+    labels = array.array("H")
+    labels.frombytes(bytes(out))
+    if sys.byteorder == "little":
+        labels.byteswap()  # PNG samples are big-endian
+    return labels
+
+
+_PAIR_RUNS = re.compile(b"(..)\\1*", re.S)
+_NONZERO = re.compile(b"[^\\x00]")
+
+
+def runs_of(labels):
+    """[(label, run length)] of a label sequence, row-major."""
+    if isinstance(labels, array.array) and labels.typecode == "H":
+        raw = labels.tobytes()
+        fmt = "<H" if sys.byteorder == "little" else ">H"
+        return [(struct.unpack(fmt, m.group(1))[0], (m.end() - m.start()) >> 1)
+                for m in _PAIR_RUNS.finditer(raw)]
+    out = []
+    for lab in labels:
+        if out and out[-1][0] == lab:
+            out[-1][1] += 1
         else:
-            s[0] += x
-            s[1] += y
-            s[2] += z
-            s[3] += 1
-    return {lab: (s[0] / s[3], s[1] / s[3], s[2] / s[3], s[3])
-            for lab, s in sums.items() if s[3] >= min_points}
+            out.append([lab, 1])
+    return [tuple(r) for r in out]
+
+
+def published_runs(msg, decode_labels):
+    """runs_of a label_image_t; run-length encoded messages give their runs directly."""
+    if msg.compression == 1 and msg.size == len(msg.data) and len(msg.data) % 6 == 0:
+        runs = [r for r in struct.iter_unpack("<HI", bytes(msg.data)) if r[1]]
+        if sum(r[1] for r in runs) == msg.width * msg.height:
+            return runs
+    return runs_of(decode_labels(msg))
+
+
+def contingency(runs_a, runs_b):
+    """Counter of (a, b) pixel pairs of two label images given as runs over the same pixels."""
+    counts = Counter()
+    i = j = 0
+    la = lb = 0
+    a = b = 0
+    while True:
+        if la == 0:
+            if i == len(runs_a):
+                break
+            a, la = runs_a[i]
+            i += 1
+            continue
+        if lb == 0:
+            if j == len(runs_b):
+                break
+            b, lb = runs_b[j]
+            j += 1
+            continue
+        n = la if la < lb else lb
+        counts[(a, b)] += n
+        la -= n
+        lb -= n
+    if la or lb or i != len(runs_a) or j != len(runs_b):
+        raise ValueError("label images of different sizes")
+    return counts
+
+
+def partition(gt_labels, pred_labels, gt_objects, occluder):
+    """The partition of the ground-truth objects `gt_objects` (labels) by the published
+    segmentation; both label images as runs (runs_of) over the same pixels: (per object: its merge group, or None when
+    most of its pixels are not in a segment; per object: segments it dominates; segments
+    dominated by the background). See the module docstring."""
+    wanted = set(gt_objects)
+    counts = Counter()
+    for (g, p), n in contingency(gt_labels, pred_labels).items():
+        counts[(g if g in wanted and g != occluder else 0, p)] += n
+    seg_owner, seg_best = {}, {}  # segment -> dominant ground truth (0: background)
+    obj_seg, obj_best = {}, {}    # object -> dominant segment (0: none)
+    for (g, p), n in sorted(counts.items()):
+        if p:
+            if n > seg_best.get(p, 0):
+                seg_best[p], seg_owner[p] = n, g
+        if g:
+            if n > obj_best.get(g, 0):
+                obj_best[g], obj_seg[g] = n, p
+    groups = {}
+    for g in sorted(wanted):
+        p = obj_seg.get(g, 0)
+        if p:
+            groups.setdefault(p, []).append(g)
+    merged = tuple(sorted((g, tuple(groups[obj_seg[g]]) if obj_seg.get(g, 0) else None)
+                          for g in wanted))
+    pieces = Counter(seg_owner.values())
+    split = tuple(sorted((g, pieces.get(g, 0)) for g in wanted))
+    return merged, split, pieces.get(0, 0)
+
+
+class GtFrame:
+    """One ground-truth frame: its frame_seq, scene index, occluder label (0: none) and its
+    visible pixels (None: unknown), the PCD and label PNG paths (None when absent), and the
+    manifest's {label: (x, y, z, valid_points)} (None when the manifest has no centroids)."""
+
+    __slots__ = ("seq", "scene", "occluder", "occluder_pixels", "pcd", "label_png", "centroids")
+
+    def __init__(self, seq, scene, occluder, occluder_pixels, pcd, label_png, centroids):
+        self.seq, self.scene, self.occluder = seq, scene, occluder
+        self.occluder_pixels, self.pcd, self.label_png = occluder_pixels, pcd, label_png
+        self.centroids = centroids
 
 
 def ground_truth_frames(gt_dir):
-    """[(frame_seq, pcd path, scene_index, occluder_label)] in frame order, from scenes.json
-    (frames numbered by oni_frame) or, without it, from the frame_NNNNNN.pcd names."""
+    """[GtFrame] in frame order, from scenes.json (frames numbered by oni_frame) or, without
+    it, from the frame_NNNNNN.pcd names."""
     manifest = os.path.join(gt_dir, "scenes.json")
     frames = []
     if os.path.isfile(manifest):
         with open(manifest) as f:
             doc = json.load(f)
         for k, rec in enumerate(doc.get("scenes", [])):
-            seq = rec.get("oni_frame", k)
-            pcd = rec.get("files", {}).get("pcd", rec["name"] + ".pcd")
-            frames.append((seq, os.path.join(gt_dir, pcd), rec.get("scene_index", 0),
-                           rec.get("occluder_label", 0)))
+            files = rec.get("files", {})
+            pcd = files.get("pcd")
+            if pcd is None and "label_png" not in files:
+                pcd = rec["name"] + ".pcd"
+            png = files.get("label_png")
+            objs = rec.get("objects", [])
+            cents = None
+            if objs and all("centroid" in o and "valid_points" in o for o in objs):
+                cents = {o["label"]: tuple(o["centroid"]) + (o["valid_points"],) for o in objs}
+            elif not objs and pcd is None:
+                cents = {}
+            frames.append(GtFrame(rec.get("oni_frame", k), rec.get("scene_index", 0),
+                                  rec.get("occluder_label", 0),
+                                  rec.get("occluder_visible_pixels"),
+                                  os.path.join(gt_dir, pcd) if pcd else None,
+                                  os.path.join(gt_dir, png) if png else None, cents))
     else:
         for p in sorted(glob.glob(os.path.join(gt_dir, "frame_*.pcd"))):
             stem = os.path.basename(p)[len("frame_"):-len(".pcd")]
             if stem.isdigit():
-                frames.append((int(stem), p, 0, 0))
-    frames.sort()
+                frames.append(GtFrame(int(stem), 0, 0, None, p, None, None))
+    frames.sort(key=lambda f: f.seq)
+    for f in frames:
+        if f.centroids is None and f.pcd is None:
+            fail("%s: frame %d has neither a PCD nor centroids" % (gt_dir, f.seq))
     return frames
+
+
+class PartitionFlicker:
+    """Counts static frame pairs whose partition of the ground-truth objects differs."""
+
+    def __init__(self, settle_frames):
+        self.settle = settle_frames
+        self.prev = None  # (ground-truth set, partition) of the previous frame
+        self.same_run = 0
+        self.pairs = 0
+        self.changed = 0
+        self.by_part = [0, 0, 0]  # changed pairs whose merges / splits / background differ
+        self.frames = []  # (recording, frame_seq) of the changed frames
+
+    def break_run(self):
+        self.prev = None
+        self.same_run = 0
+
+    def add_frame(self, key, gt_set, part, static):
+        """`part` None: the frame cannot be scored (no label image); `static`: no occluder."""
+        if part is None or not static:
+            self.break_run()
+            return
+        self.same_run = self.same_run + 1 if self.prev is not None and \
+            self.prev[0] == gt_set else 1
+        if self.same_run >= self.settle + 2:
+            self.pairs += 1
+            if part != self.prev[1]:
+                self.changed += 1
+                for i in range(3):
+                    self.by_part[i] += part[i] != self.prev[1][i]
+                self.frames.append(key)
+        self.prev = (gt_set, part)
 
 
 # ---- scoring (the definitions of eval::TrackingEvaluator) -----------------------------------
@@ -348,6 +616,8 @@ def main():
                     help="an LCM log written by the daemon (file:// URL or lcm-logger) and the "
                          "ground-truth directory of clutterseg-synth --oni ... --out; repeatable")
     ap.add_argument("--channel", default="CLUTTERSEG_OBJECTS")
+    ap.add_argument("--labels-channel", default="CLUTTERSEG_LABELS",
+                    help="label_image_t channel, for the partition flicker")
     ap.add_argument("--match-distance", type=float, default=0.03, help="metres (default 0.03)")
     ap.add_argument("--min-points", type=int, default=200,
                     help="a ground-truth object is visible with at least this many points "
@@ -359,23 +629,34 @@ def main():
                     help="which ids the per-object table shows (default tracks)")
     ap.add_argument("--min-consistency", type=float, default=None,
                     help="exit 1 when the tracks' overall consistency is below this")
+    ap.add_argument("--list-flicker", action="store_true",
+                    help="list the (recording:frame_seq) whose partition changed")
     ap.add_argument("--bindings", default=None,
                     help="directory holding the generated clutterseg/ Python package")
     args = ap.parse_args()
 
     objects_t, read_log = import_bindings(args.bindings)
-    from clutterseg import object_t
+    from clutterseg import object_t, label_image_t
+    from clutterseg.label_image_codec import decode as decode_labels
     if len(args.inputs) % 2:
         ap.error("expected pairs of LOG GTDIR")
     pairs = [(args.inputs[i], args.inputs[i + 1]) for i in range(0, len(args.inputs), 2)]
 
     evals = {k: Evaluator(args.match_distance, args.settle_frames) for k in ID_KINDS}
+    parts = PartitionFlicker(args.settle_frames)
+    no_label_images = 0
     tracker_off, total_objects = 0, 0
     for rec, (log, gt_dir) in enumerate(pairs):
         # Published frames by frame_seq (the first pass only, should the replay have looped).
         published, repeats, messages = {}, 0, 0
+        label_images = {}  # frame_seq -> encoded label_image_t (decoded when scored)
         try:
-            for ev in read_log(log, channels=[args.channel]):
+            for ev in read_log(log, channels=[args.channel, args.labels_channel]):
+                if ev.channel == args.labels_channel:
+                    if ev.channel != args.channel:
+                        seq = label_image_t.decode(ev.data).frame_seq
+                        label_images.setdefault(seq, ev.data)
+                        continue
                 msg = objects_t.decode(ev.data)
                 messages += 1
                 if msg.frame_seq in published:
@@ -395,25 +676,50 @@ def main():
         if not gt_frames:
             fail("no ground-truth frames in %s" % gt_dir)
 
-        for e in evals.values():
+        for e in list(evals.values()) + [parts]:
             e.break_run()
         scored, missing, prev_seq = 0, 0, None
-        for seq, pcd, scene, occluder in gt_frames:
+        for fr in gt_frames:
+            seq, scene, occluder = fr.seq, fr.scene, fr.occluder
             if seq not in published:
                 missing += 1
                 prev_seq = None
-                for e in evals.values():
+                for e in list(evals.values()) + [parts]:
                     e.break_run()
                 continue
             if prev_seq is not None and seq != prev_seq + 1:
-                for e in evals.values():
+                for e in list(evals.values()) + [parts]:
                     e.break_run()
             prev_seq = seq
+            static = occluder == 0 or fr.occluder_pixels == 0
+            gt_labels = None
             try:
-                cents = read_pcd_label_centroids(pcd, args.min_points)
-            except (OSError, ValueError, KeyError) as e:
-                fail("%s: %s" % (pcd, e))
+                if fr.centroids is not None:
+                    cents = {lab: c for lab, c in fr.centroids.items() if c[3] >= args.min_points}
+                else:
+                    cents, gt_labels = read_pcd_label_centroids(fr.pcd, args.min_points)
+                if static and seq in label_images:
+                    if fr.label_png is not None:
+                        gt_runs = read_png_label_runs(fr.label_png)
+                    else:
+                        if gt_labels is None:
+                            gt_labels = read_pcd_columns(fr.pcd)[0]
+                        gt_runs = runs_of(gt_labels)
+            except (OSError, ValueError, KeyError, zlib.error) as e:
+                fail("%s: %s" % (fr.label_png or fr.pcd, e))
             gt = {(rec, scene, lab): c[:3] for lab, c in cents.items() if lab != occluder}
+            part = None
+            if seq not in label_images:
+                no_label_images += 1
+            elif static:
+                try:
+                    pred_runs = published_runs(label_image_t.decode(label_images[seq]),
+                                               decode_labels)
+                    part = partition(gt_runs, pred_runs,
+                                     [lab for lab in cents if lab != occluder], occluder)
+                except ValueError as e:
+                    fail("%s: frame %d: %s" % (log, seq, e))
+            parts.add_frame((rec, seq), sorted(gt), part, static)
             objs, lost = published[seq]
             # Ids of different recordings are different ids.
             evals["label"].add_frame(gt, [((rec, o[0]), o[3]) for o in objs])
@@ -424,7 +730,7 @@ def main():
             scored += 1
         if scored == 0:
             fail("no frame of %s was published in %s" % (gt_dir, log))
-        scenes = len({f[2] for f in gt_frames})
+        scenes = len({f.scene for f in gt_frames})
         print("recording %d: %s: %d objects_t messages; %s: %d ground-truth frames (%d scene%s), "
               "%d scored, %d not published%s" % (
                   rec, log, messages, gt_dir, len(gt_frames), scenes, "" if scenes == 1 else "s",
@@ -464,6 +770,19 @@ def main():
             k, s["num_objects"], s["consistency"], s["min_object_consistency"], s["switches"],
             s["id_reuse"], s["matched"], s["visible"], s["coverage"], s["flicker_pairs"],
             s["steady_pairs"], s["flicker"]))
+    if parts.pairs:
+        print("\npartition flicker: %d of %d static frame pairs = %.3f (the partition of the "
+              "ground-truth objects differs from the previous frame's)"
+              % (parts.changed, parts.pairs, parts.changed / parts.pairs))
+        print("  of those, merge groups differ in %d, split counts in %d, segments on the "
+              "background in %d" % tuple(parts.by_part))
+    else:
+        print("\npartition flicker: no static frame pairs with label images%s"
+              % (" (%d frames without a label image on %s)" % (no_label_images,
+                                                               args.labels_channel)
+                 if no_label_images else ""))
+    if args.list_flicker and parts.frames:
+        print("partition changed in: " + ", ".join("%d:%d" % k for k in parts.frames))
     if args.min_consistency is not None and (
             "tracks" not in kinds or sums["tracks"]["consistency"] < args.min_consistency):
         if "tracks" not in kinds:

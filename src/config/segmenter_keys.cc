@@ -14,6 +14,12 @@ namespace clutterseg::config {
 
 const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
   static const std::vector<Key<pipeline::SegmenterParams>> kKeys = {
+      CLUTTERSEG_SEGMENTER_KEY(temporal, enabled),
+      CLUTTERSEG_SEGMENTER_KEY(temporal, max_frames),
+      CLUTTERSEG_SEGMENTER_KEY(temporal, band_at_1m_m),
+      CLUTTERSEG_SEGMENTER_KEY(temporal, min_band_m),
+      CLUTTERSEG_SEGMENTER_KEY(temporal, hole_fill_frames),
+
       CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),
 

@@ -17,8 +17,10 @@
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/daemon/overlay_writer.h"
+#include "clutterseg/daemon/source_factory.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/pipeline/temporal_filter.h"
 #include "clutterseg/pipeline/tracker.h"
 
 namespace clutterseg::daemon {
@@ -63,6 +65,7 @@ struct Daemon::Impl {
       Log(LogLevel::kInfo, "objects in frame '" + extrinsics->parent_frame + "' (" +
                                config.camera.extrinsics_file + ")");
     }
+    SetTemporalFilter(config.segmenter.temporal);
   }
 
   const DaemonConfig config;
@@ -82,6 +85,12 @@ struct Daemon::Impl {
   pipeline::TrackingResult tracking;
   std::mutex tracker_params_mutex;
   std::unique_ptr<pipeline::TrackerParams> pending_tracker_params;  // applied before a frame
+  // The temporal depth filter: frames of a stream only (IsFrameStream), applied by the
+  // dispatcher to each frame before it is submitted, so in frame order whatever the lanes.
+  const bool stream_source{IsFrameStream(config.source)};
+  std::unique_ptr<pipeline::TemporalDepthFilter> temporal;  // dispatcher thread only
+  std::mutex temporal_params_mutex;
+  std::unique_ptr<pipeline::TemporalFilterParams> pending_temporal_params;  // applied next
   pipeline::FrameRunner runner;  // last: its lanes use everything above
   std::thread dispatch_thread;
   bool opened{false};
@@ -292,6 +301,29 @@ struct Daemon::Impl {
 
   // ---- dispatcher: frame queue -> runner -> frame queue -----------------------------------
 
+  // A new filter (its history starts afresh) or none. Dispatcher thread, or before it starts.
+  void SetTemporalFilter(const pipeline::TemporalFilterParams& params) {
+    temporal.reset();
+    if (stream_source && params.enabled) {
+      temporal = std::make_unique<pipeline::TemporalDepthFilter>(params);
+    }
+  }
+
+  // Filters the frame's depth in place before it is segmented (a cloud from the source is
+  // segmented as it is).
+  void FilterDepth(core::RgbdFrame* frame) {
+    {
+      std::lock_guard<std::mutex> lock(temporal_params_mutex);
+      if (pending_temporal_params) {
+        SetTemporalFilter(*pending_temporal_params);
+        pending_temporal_params.reset();
+      }
+    }
+    if (temporal && frame->cloud.empty() && !frame->depth.empty()) {
+      temporal->Apply(&frame->depth);
+    }
+  }
+
   void ReleaseFinished(std::vector<uint64_t>* items) {
     runner.TakeFinishedInputs(items);
     for (const uint64_t item : *items) queue->release(reinterpret_cast<core::RgbdFrame*>(item));
@@ -310,6 +342,7 @@ struct Daemon::Impl {
         if (queue->drained()) break;
         continue;
       }
+      if (!stop.load()) FilterDepth(frame);
       if (stop.load() || !runner.Submit(reinterpret_cast<uint64_t>(frame), backlog)) {
         queue->release(frame);  // stopping: finish only what is in flight
         discarded.fetch_add(1);
@@ -407,6 +440,11 @@ void Daemon::RequestStop() { impl_->RequestStop(); }
 
 void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
   impl_->runner.UpdateParams(params);  // validates first
+  {
+    std::lock_guard<std::mutex> lock(impl_->temporal_params_mutex);
+    impl_->pending_temporal_params =
+        std::make_unique<pipeline::TemporalFilterParams>(params.temporal);
+  }
   impl_->reloads.fetch_add(1);
 }
 

@@ -86,6 +86,16 @@ SourceKind ClassifySource(const std::string& source) {
                         "or synthetic)");
 }
 
+bool IsFrameStream(const std::string& source) {
+  try {
+    const SourceKind kind = ClassifySource(source);
+    return kind == SourceKind::kDevice || kind == SourceKind::kOniFile ||
+           kind == SourceKind::kSynthetic;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 std::unique_ptr<core::FrameSource> MakeSource(const DaemonConfig& config) {
   const std::string& source = config.source;
   const bool max_speed = config.capture.speed == Speed::kMax;

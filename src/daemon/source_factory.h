@@ -17,6 +17,12 @@ enum class SourceKind { kDevice, kOniFile, kPcdDirectory, kDepthPngDirectory, kS
 /// (or a file that is not an .oni recording).
 SourceKind ClassifySource(const std::string& source);
 
+/// Whether `source` names one stream of frames of a scene: a camera, an .oni recording or the
+/// synthetic source, whose frames the temporal depth filter (`segmenter.temporal`) averages.
+/// False for a directory of files (PCD, depth PNG), whose frames need not show one scene, and
+/// for a name that classifies as nothing. Never throws.
+bool IsFrameStream(const std::string& source);
+
 /// Builds (does not open) the frame source named by `config.source`, configured from
 /// `config` (speed, loop, camera name). @throws SourceOpenError when the path does not
 /// exist, std::invalid_argument when the source kind is not built into this binary or its

@@ -21,6 +21,7 @@ void ObjectParams::ValidateOrThrow() const {
 }
 
 void SegmenterParams::ValidateOrThrow() const {
+  temporal.ValidateOrThrow();
   points.ValidateOrThrow();
   support.ValidateOrThrow();
   supervoxel.ValidateOrThrow();

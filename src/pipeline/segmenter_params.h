@@ -5,6 +5,7 @@
 #include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage_params.h"
 #include "clutterseg/optimize/plane_params.h"
+#include "clutterseg/pipeline/temporal_filter.h"
 #include "clutterseg/pipeline/working_cloud.h"
 #include "clutterseg/supervoxel/supervoxel_params.h"
 
@@ -66,6 +67,9 @@ struct ObjectParams {
 /// measured best configuration; see docs/configuration.md for every key and
 /// docs/method.md for the paper's settings (config/paper.yaml).
 struct SegmenterParams {
+  /// The temporal depth filter of a stream, applied before the Segmenter by the program that
+  /// owns the stream (the daemon), in frame order; the Segmenter itself does not read it.
+  TemporalFilterParams temporal;
   PointsParams points;
   geometry::PlanarRegionParams support;
   supervoxel::SupervoxelParams supervoxel;

@@ -116,11 +116,11 @@ void AddOccluder(const SceneParams& scene_params, const SequenceParams& params, 
 
 Scenario ParseScenario(std::string_view name) {
   for (Scenario s : {Scenario::kAdd, Scenario::kRemove, Scenario::kAddRemove, Scenario::kOccluder,
-                     Scenario::kStatic}) {
+                     Scenario::kStatic, Scenario::kPiles}) {
     if (name == ScenarioName(s)) return s;
   }
   throw std::invalid_argument("unknown scenario '" + std::string(name) +
-                              "' (expected add, remove, add-remove, occluder or static)");
+                              "' (expected add, remove, add-remove, occluder, static or piles)");
 }
 
 std::string_view ScenarioName(Scenario scenario) {
@@ -135,8 +135,17 @@ std::string_view ScenarioName(Scenario scenario) {
       return "occluder";
     case Scenario::kStatic:
       return "static";
+    case Scenario::kPiles:
+      return "piles";
   }
   return "unknown";
+}
+
+SceneParams PileSceneParams(SceneParams base) {
+  base.touch_probability = 0.6;
+  base.stack_probability = 0.25;
+  base.occlude_probability = 0.1;
+  return base;
 }
 
 OccluderShape ParseOccluderShape(std::string_view name) {
@@ -166,7 +175,8 @@ void SequenceParams::ValidateOrThrow() const {
 std::vector<Scene> GenerateScenarioSequence(const SceneParams& scene_params,
                                             const SequenceParams& params, uint64_t seed) {
   params.ValidateOrThrow();
-  SceneParams p = scene_params;
+  SceneParams p =
+      params.scenario == Scenario::kPiles ? PileSceneParams(scene_params) : scene_params;
   p.min_objects = p.max_objects = params.num_objects;
   const Scene full = GenerateScene(p, seed);
   const uint32_t num_labels = static_cast<uint32_t>(full.objects.size());
@@ -227,6 +237,44 @@ std::vector<Scene> GenerateScenarioSequence(const SceneParams& scene_params,
         }
       }
       break;
+    case Scenario::kPiles: {
+      // Placed in label order (a stacked object's support and a touching object's partner
+      // come first), removed in a random order that never takes away a support first.
+      const int s = params.step_frames;
+      const int placed_end = static_cast<int>(num_labels) * s;
+      const int sweep_end = placed_end + s;
+      const int removal_start = sweep_end + s;
+      std::vector<uint8_t> all(num_labels + 1, 1);
+      std::vector<uint32_t> removal;
+      std::vector<uint32_t> removable;
+      while (removal.size() < num_labels) {
+        removable.clear();
+        for (const SceneObject& o : full.objects) {
+          if (all[o.label] && !HasPresentChild(full, all, o.label)) removable.push_back(o.label);
+        }
+        const uint32_t l = removable[static_cast<size_t>(
+            rng.UniformInt(0, static_cast<int>(removable.size()) - 1))];
+        all[l] = 0;
+        removal.push_back(l);
+      }
+      for (int k = 0; k < n; ++k) {
+        if (k < placed_end) {
+          const uint32_t count = static_cast<uint32_t>(k / s) + 1;
+          for (uint32_t l = 1; l <= num_labels; ++l) present[l] = l <= count ? 1 : 0;
+        } else if (k < removal_start) {
+          for (uint32_t l = 1; l <= num_labels; ++l) present[l] = 1;
+        } else {
+          const size_t removed = std::min<size_t>(num_labels, (k - removal_start) / s + 1);
+          for (uint32_t l = 1; l <= num_labels; ++l) present[l] = 1;
+          for (size_t i = 0; i < removed; ++i) present[removal[i]] = 0;
+        }
+        frames.push_back(FrameWith(full, present));
+        if (k >= placed_end && k < sweep_end) {
+          AddOccluder(p, params, k - placed_end, s, num_labels + 1, &frames.back());
+        }
+      }
+      break;
+    }
   }
   for (int k = 0; k < n; ++k) Jitter(params, seed, k, &frames[static_cast<size_t>(k)].camera_pose);
   return frames;

@@ -20,9 +20,15 @@ enum class Scenario : uint8_t {
   kOccluder,   ///< "occluder": every object, and an occluder between camera and table that
                ///< sweeps across the view from one side to the other over the sequence
   kStatic,     ///< "static": every object in every frame (only the sensor noise changes)
+  /// "piles": objects in touching piles (the scene is drawn with PileSceneParams), one
+  /// placed every step_frames frames until all are on the table, an occluder sweeping across
+  /// the view over the next step_frames frames, step_frames frames of nothing but noise, then
+  /// one removed every step_frames frames (never one something stands on) until the table is
+  /// empty: (2 N + 2) step_frames frames for N objects; frames past that show the empty table.
+  kPiles,
 };
 
-/// Parses "add", "remove", "add-remove", "occluder" or "static".
+/// Parses "add", "remove", "add-remove", "occluder", "static" or "piles".
 /// @throws std::invalid_argument naming the value otherwise.
 Scenario ParseScenario(std::string_view name);
 /// The name ParseScenario accepts.
@@ -38,13 +44,20 @@ enum class OccluderShape : uint8_t {
 OccluderShape ParseOccluderShape(std::string_view name);
 std::string_view OccluderShapeName(OccluderShape shape);
 
+/// `base` with the placement probabilities of Scenario::kPiles: most objects touch another one
+/// (touch_probability 0.6) or stand on one (stack_probability 0.25), a few stand in front of
+/// another (occlude_probability 0.1), the rest stand free; the gaps of touching objects and
+/// everything else as in `base`.
+SceneParams PileSceneParams(SceneParams base);
+
 /// Knobs of GenerateScenarioSequence. Distances in metres, angles in degrees.
 struct SequenceParams {
   Scenario scenario{Scenario::kAdd};
   int num_frames{30};
   /// Objects placed in the underlying scene (fewer when the table in view is too crowded).
   int num_objects{6};
-  /// kAdd, kRemove, kAddRemove: frames between two changes of the object set (>= 1).
+  /// kAdd, kRemove, kAddRemove, kPiles: frames between two changes of the object set (>= 1);
+  /// kPiles: also the length of the occluder's sweep and of the static stretch after it.
   int step_frames{3};
   OccluderShape occluder_shape{OccluderShape::kArm};
   /// Arm radius, or half the side of the box.
@@ -63,7 +76,8 @@ struct SequenceParams {
 };
 
 /// Generates the frames of one scenario over one scene drawn with `scene_params` (its
-/// min_objects / max_objects replaced by params.num_objects) and `seed`. frames[k].objects
+/// min_objects / max_objects replaced by params.num_objects; Scenario::kPiles draws it with
+/// PileSceneParams(scene_params)) and `seed`. frames[k].objects
 /// lists the objects present in frame k (by increasing label, labels of the full scene, so
 /// objects[i].label == i + 1 no longer holds once one is removed); the occluder's primitives
 /// carry Scene::occluder_label. Scenario::kAdd with step_frames = 1 and num_objects =

@@ -172,6 +172,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_TRUE(defaults.objects.merge_small_groups);
   EXPECT_GT(defaults.linkage.color_threshold, 0.f);
   EXPECT_EQ(defaults.linkage.color_concavity_tolerance_deg, 0.f);  // measured, not kept
+  EXPECT_TRUE(defaults.temporal.enabled);
   pipeline::SegmenterParams p;
   LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/paper.yaml", &p);
   EXPECT_EQ(p.supervoxel.normal_importance, 4.f);
@@ -184,6 +185,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_EQ(p.objects.support_release_fraction, 0.f);
   EXPECT_EQ(p.objects.support_reclaim_passes, 0);
   EXPECT_FALSE(p.objects.merge_small_groups);
+  EXPECT_FALSE(p.temporal.enabled);  // the paper segments each frame on its own
   // config/previous-defaults.yaml: the same additions off, everything else the defaults.
   pipeline::SegmenterParams q;
   LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/previous-defaults.yaml", &q);

@@ -8,6 +8,9 @@
 //   tracker_report [--seeds 1,2,3] [--frames 40] [--objects 6] [--step 4] [--threads 2]
 //                  [--confirm N] [--memory N] [--occluder arm|box]
 //                  [--dump SCENARIO]   (per-frame tracks of SCENARIO for the first seed)
+//                  [--temporal-frames N] [--temporal-band-mm MM] [--temporal-min-band-mm MM]
+//                  [--temporal-hole-fill N]   (the daemon's temporal depth filter before the
+//                                              segmenter; off unless one of them is given)
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -70,6 +73,9 @@ int Main(int argc, char** argv) {
   std::string dump;
   TrackerParams tracker_params;
   synth::OccluderShape occluder = synth::OccluderShape::kArm;
+  TemporalFilterParams temporal;
+  bool filter = false;
+  std::string scenarios = "add,remove,add-remove,occluder,static";
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
     if (key == "--seeds") {
@@ -96,6 +102,20 @@ int Main(int argc, char** argv) {
       occluder = synth::ParseOccluderShape(value);
     } else if (key == "--dump") {
       dump = value;
+    } else if (key == "--scenarios") {
+      scenarios = value;
+    } else if (key == "--temporal-frames") {
+      temporal.max_frames = std::stoi(value);
+      filter = true;
+    } else if (key == "--temporal-band-mm") {
+      temporal.band_at_1m_m = std::stof(value) * 1e-3f;
+      filter = true;
+    } else if (key == "--temporal-min-band-mm") {
+      temporal.min_band_m = std::stof(value) * 1e-3f;
+      filter = true;
+    } else if (key == "--temporal-hole-fill") {
+      temporal.hole_fill_frames = std::stoi(value);
+      filter = true;
     } else {
       std::fprintf(stderr, "tracker_report: unknown option %s\n", key.c_str());
       return 2;
@@ -109,21 +129,32 @@ int Main(int argc, char** argv) {
     seq.num_objects = objects;
     seq.step_frames = step;
     seq.occluder_shape = occluder;
-    Dump(RunScenario(TrackingSceneParams(), seq, seeds.front(), tracker_params, &pool));
+    Dump(RunScenario(TrackingSceneParams(), seq, seeds.front(), tracker_params, &pool,
+                     filter ? &temporal : nullptr));
     return 0;
   }
   tracker_params.ValidateOrThrow();
   std::printf(
       "%zu seeds, %d frames, %d objects, a change every %d frames, %s occluder; tracker "
-      "confirm_frames %d, memory_frames %d\n\n",
+      "confirm_frames %d, memory_frames %d\n",
       seeds.size(), frames, objects, step, std::string(synth::OccluderShapeName(occluder)).c_str(),
       tracker_params.confirm_frames, tracker_params.memory_frames);
+  if (filter) {
+    std::printf("temporal filter: max_frames %d, band %.2f mm at 1 m, min %.2f mm, hole fill %d\n",
+                temporal.max_frames, temporal.band_at_1m_m * 1e3, temporal.min_band_m * 1e3,
+                temporal.hole_fill_frames);
+  }
+  std::printf("\n");
   std::printf("| scenario   | ids    | consistency | switches | reuse | coverage | flicker |\n");
   std::printf("|---|---|---|---|---|---|---|\n");
   std::vector<double> ms;
-  for (synth::Scenario s :
-       {synth::Scenario::kAdd, synth::Scenario::kRemove, synth::Scenario::kAddRemove,
-        synth::Scenario::kOccluder, synth::Scenario::kStatic}) {
+  std::vector<synth::Scenario> list;
+  for (size_t pos = 0; pos < scenarios.size();) {
+    const size_t comma = scenarios.find(',', pos);
+    list.push_back(synth::ParseScenario(scenarios.substr(pos, comma - pos)));
+    pos = comma == std::string::npos ? scenarios.size() : comma + 1;
+  }
+  for (synth::Scenario s : list) {
     Sum label, tracks, shown;
     for (uint64_t seed : seeds) {
       synth::SequenceParams seq;
@@ -132,7 +163,8 @@ int Main(int argc, char** argv) {
       seq.num_objects = objects;
       seq.step_frames = step;
       seq.occluder_shape = occluder;
-      const ScenarioRun run = RunScenario(TrackingSceneParams(), seq, seed, tracker_params, &pool);
+      const ScenarioRun run = RunScenario(TrackingSceneParams(), seq, seed, tracker_params, &pool,
+                                          filter ? &temporal : nullptr);
       label.Add(run.label_value);
       tracks.Add(run.track_all);
       shown.Add(run.track_confirmed);

@@ -6,11 +6,13 @@
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/eval/tracking_metrics.h"
 #include "clutterseg/pipeline/segmenter.h"
+#include "clutterseg/pipeline/temporal_filter.h"
 #include "clutterseg/pipeline/tracker.h"
 #include "clutterseg/synth/random.h"
 #include "clutterseg/synth/renderer.h"
@@ -50,9 +52,12 @@ constexpr uint32_t kMinGtPoints = 200;
 
 inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::SequenceParams& seq,
                                uint64_t seed, const TrackerParams& tracker_params = {},
-                               core::ThreadPool* pool = nullptr) {
+                               core::ThreadPool* pool = nullptr,
+                               const TemporalFilterParams* temporal = nullptr) {
   const std::vector<synth::Scene> frames = synth::GenerateScenarioSequence(scene, seq, seed);
   Segmenter segmenter(SegmenterParams{}, pool);
+  std::unique_ptr<TemporalDepthFilter> filter;  // the daemon's filter of a stream, when given
+  if (temporal != nullptr) filter = std::make_unique<TemporalDepthFilter>(*temporal);
   Tracker tracker(tracker_params);
   // Flicker is counted once a change of the scene is two frames old (the default delay
   // before a new object is shown, TrackerParams{}.confirm_frames - 1), for every kind of id
@@ -71,6 +76,7 @@ inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::Seq
   for (size_t k = 0; k < frames.size(); ++k) {
     synth::RenderScene(frames[k], scene.intrinsics, synth::SensorParams{},
                        synth::HashCounter(seed, 0x7a11, k + 1), &rendered, pool);
+    if (filter) filter->Apply(&rendered.depth);
     synth::ToPointCloud(rendered, &cloud);
     segmenter.Process(cloud, scene.intrinsics, &result);
     tracker.Update(result, static_cast<int64_t>(k), &tracking);

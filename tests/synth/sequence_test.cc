@@ -188,9 +188,59 @@ TEST(ScenarioSequence, StaticSceneAndCameraJitter) {
   }
 }
 
+TEST(ScenarioSequence, PilesArePlacedOneByOneSweptThenRemovedOneByOne) {
+  const int step = 3;
+  const SequenceParams seq = Sequence(Scenario::kPiles, 200, 14, step);
+  const std::vector<Scene> frames = GenerateScenarioSequence(Params(), seq, 21);
+  ASSERT_EQ(frames.size(), 200u);
+  ExpectStableLabels(frames, "piles");
+  const size_t n = frames[step * 14 - 1].objects.size();
+  ASSERT_GE(n, 12u);
+  const int placed_end = static_cast<int>(n) * step;
+  const int removal_start = placed_end + 2 * step;
+  const int end = removal_start + static_cast<int>(n) * step;
+  // Piles: most objects touch another one or stand on one.
+  int piled = 0;
+  for (const SceneObject& o : frames[placed_end].objects) {
+    piled += o.placement == Placement::kTouching || o.placement == Placement::kStacked;
+  }
+  EXPECT_GE(piled, static_cast<int>(n) / 2);
+  for (int k = 0; k < 200; ++k) {
+    const Scene& f = frames[static_cast<size_t>(k)];
+    const size_t count = f.objects.size();
+    if (k < placed_end) {
+      EXPECT_EQ(count, static_cast<size_t>(k / step) + 1) << "frame " << k;
+      EXPECT_EQ(f.objects.back().label, count) << "placed in label order, frame " << k;
+    } else if (k < removal_start) {
+      EXPECT_EQ(count, n) << "frame " << k;
+    } else if (k < end) {
+      EXPECT_EQ(count, n - static_cast<size_t>((k - removal_start) / step) - 1) << "frame " << k;
+    } else {
+      EXPECT_EQ(count, 0u) << "frame " << k;
+    }
+    // The occluder only during its sweep; nothing stands on an absent support.
+    EXPECT_EQ(f.occluder_label != 0, k >= placed_end && k < placed_end + step) << "frame " << k;
+    std::vector<uint8_t> present(n + 2, 0);
+    for (const SceneObject& o : f.objects) present[o.label] = 1;
+    for (const SceneObject& o : f.objects) {
+      if (o.placement == Placement::kStacked) {
+        EXPECT_TRUE(present[o.partner_label]) << "frame " << k << " label " << o.label;
+      }
+    }
+    // Static stretches: the object set changes only at a step's first frame.
+    if (k > 0 && k % step != 0) {
+      EXPECT_EQ(Labels(f), Labels(frames[static_cast<size_t>(k) - 1])) << "frame " << k;
+    }
+  }
+  // Deterministic in the seed.
+  const std::vector<Scene> again = GenerateScenarioSequence(Params(), seq, 21);
+  for (size_t k = 0; k < frames.size(); ++k) EXPECT_EQ(Labels(again[k]), Labels(frames[k]));
+  EXPECT_EQ(PileSceneParams(Params()).touch_probability, 0.6);
+}
+
 TEST(ScenarioSequence, NamesAndValidation) {
   for (Scenario s : {Scenario::kAdd, Scenario::kRemove, Scenario::kAddRemove, Scenario::kOccluder,
-                     Scenario::kStatic}) {
+                     Scenario::kStatic, Scenario::kPiles}) {
     EXPECT_EQ(ParseScenario(ScenarioName(s)), s);
   }
   EXPECT_THROW(ParseScenario("shuffle"), std::invalid_argument);

@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "clutterseg/io/pcd.h"
+#include "clutterseg/io/png_io.h"
 #include "tests/testing/test_data.h"
 #include "tool_runner.h"
 
@@ -123,6 +124,31 @@ TEST(SynthTool, ScenarioFramesKeepEveryObjectsLabel) {
                     "--width 320 --height 240"),
             0);
   EXPECT_NE(ReadAll(occ / "scenes.json").find("\"occluder_label\": "), std::string::npos);
+}
+
+TEST(SynthTool, LabelsOnlyGroundTruthOfAPileSequenceIsByteIdenticalForASeed) {
+  const fs::path a = testing::ScratchDir("synth_tool_piles_a");
+  const fs::path b = testing::ScratchDir("synth_tool_piles_b");
+  const std::string args =
+      " --scenario piles --objects 5 --step-frames 2 --frames 24 --seed 7 --gt-labels-only "
+      "--width 320 --height 240";
+  ASSERT_EQ(RunTool("--out " + a.string() + args), 0);
+  ASSERT_EQ(RunTool("--out " + b.string() + args + " --threads 2"), 0);
+  const std::vector<std::string> files = ListFiles(a);
+  ASSERT_EQ(files.size(), 25u);  // 24 label PNGs and the manifest, no PCD
+  EXPECT_EQ(files.front(), "scene_0000_frame_0000_label.png");
+  EXPECT_EQ(ListFiles(b), files);
+  for (const std::string& f : files) EXPECT_EQ(ReadAll(a / f), ReadAll(b / f)) << f;
+  const std::string manifest = ReadAll(a / "scenes.json");
+  EXPECT_NE(manifest.find("\"scenario\": \"piles\""), std::string::npos);
+  EXPECT_NE(manifest.find("\"centroid\": ["), std::string::npos);
+  EXPECT_NE(manifest.find("\"valid_points\": "), std::string::npos);
+  // The label PNG holds the first object in the first frame.
+  const core::DepthImage labels = io::ReadDepthPng((a / files.front()).string());
+  EXPECT_EQ(labels.width, 320);
+  std::set<uint16_t> values(labels.data.begin(), labels.data.end());
+  EXPECT_EQ(values, (std::set<uint16_t>{0, 1}));
+  EXPECT_EQ(RunTool("--oni x.oni --gt-labels-only --scenario piles"), 2);  // needs --out
 }
 
 TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {

@@ -1,0 +1,121 @@
+// The temporal depth filter in the `clutterseg` process: on for a recording, off with
+// segmenter.temporal.enabled=false and for a directory of files, and the same output with one
+// lane and one thread as with the defaults. Checked on the depth images the daemon publishes
+// (lcm.publish_depth), which are the depths it segmented.
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "clutterseg/daemon/messages.h"
+#include "clutterseg/daemon/source_factory.h"
+#include "clutterseg/depth_image_t.hpp"
+#include "clutterseg/label_image_t.hpp"
+#include "tests/daemon/daemon_cli.h"
+#include "tests/daemon/daemon_test_util.h"
+#include "tests/testing/test_data.h"
+
+namespace clutterseg::daemon {
+namespace {
+
+namespace fs = std::filesystem;
+
+// What one run published, per frame in order: the depth payloads and the label images.
+struct Published {
+  std::vector<std::vector<uint8_t>> depth;
+  std::vector<core::LabelImage> labels;
+};
+
+class DaemonTemporal : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = testing::ScratchDir("daemon_temporal_" + std::to_string(getpid()));
+    recording_ = (dir_ / "static.oni").string();
+    std::string err;
+    have_recording_ = testutil::Run({CLUTTERSEG_SYNTH_EXE, "--scenario", "static", "--objects", "4",
+                                     "--frames", "6", "--seed", "31", "--oni", recording_},
+                                    std::chrono::minutes(5), &err) == 0;
+    if (!have_recording_) std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
+  }
+  static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+  void SetUp() override { ASSERT_TRUE(have_recording_) << "no recording from clutterseg-synth"; }
+
+  // Replays `source` in lockstep with depth images published, plus `extra`.
+  static Published Replay(const std::string& source, const std::string& name,
+                          const std::vector<std::string>& extra = {}) {
+    const std::string log = (dir_ / (name + ".lcmlog")).string();
+    std::vector<std::string> args = {"--set", "lcm.publish_depth=true"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    std::string err;
+    const int rc = testutil::Run(
+        testutil::ReplayArgs(CLUTTERSEG_DAEMON_EXE, source, "file://" + log + "?mode=w", args),
+        std::chrono::minutes(2), &err);
+    EXPECT_EQ(rc, 0) << err;
+    Published out;
+    for (const testutil::LogEvent& ev : testutil::ReadLcmLog(log)) {
+      const int size = static_cast<int>(ev.data.size());
+      if (ev.channel == "CLUTTERSEG_DEPTH") {
+        clutterseg::depth_image_t m;
+        EXPECT_EQ(m.decode(ev.data.data(), 0, size), size);
+        out.depth.push_back(m.data);
+      } else if (ev.channel == "CLUTTERSEG_LABELS") {
+        clutterseg::label_image_t m;
+        EXPECT_EQ(m.decode(ev.data.data(), 0, size), size);
+        out.labels.emplace_back();
+        DecodeLabelImage(m, &out.labels.back());
+      }
+    }
+    return out;
+  }
+
+  static inline fs::path dir_;
+  static inline std::string recording_;
+  static inline bool have_recording_{false};
+};
+
+TEST_F(DaemonTemporal, ARecordingIsFilteredFromItsSecondFrameOn) {
+  const Published on = Replay(recording_, "on");
+  const Published off = Replay(recording_, "off", {"--set", "segmenter.temporal.enabled=false"});
+  ASSERT_EQ(on.depth.size(), 6u);
+  ASSERT_EQ(off.depth.size(), 6u);
+  EXPECT_EQ(on.depth[0], off.depth[0]);  // a first frame has no history
+  for (size_t k = 1; k < on.depth.size(); ++k) EXPECT_NE(on.depth[k], off.depth[k]) << k;
+}
+
+TEST_F(DaemonTemporal, OneLaneAndOneThreadGiveTheSameFilteredFramesAndLabels) {
+  const Published defaults = Replay(recording_, "defaults");
+  const Published serial =
+      Replay(recording_, "serial",
+             {"--set", "processing.pipeline_depth=1", "--set", "processing.threads=1"});
+  const Published wide = Replay(recording_, "wide", {"--set", "processing.pipeline_depth=3"});
+  ASSERT_EQ(defaults.depth.size(), 6u);
+  EXPECT_EQ(serial.depth, defaults.depth);
+  EXPECT_EQ(wide.depth, defaults.depth);
+  ASSERT_EQ(serial.labels.size(), defaults.labels.size());
+  ASSERT_EQ(wide.labels.size(), defaults.labels.size());
+  for (size_t k = 0; k < defaults.labels.size(); ++k) {
+    EXPECT_EQ(serial.labels[k].data, defaults.labels[k].data) << k;
+    EXPECT_EQ(wide.labels[k].data, defaults.labels[k].data) << k;
+  }
+}
+
+TEST(DaemonTemporalSources, StreamsAreFilteredAndDirectoriesOfFilesAreNot) {
+  EXPECT_TRUE(IsFrameStream("device"));
+  EXPECT_TRUE(IsFrameStream("device:1d27/0601@2/3"));
+  EXPECT_TRUE(IsFrameStream("synthetic"));
+  EXPECT_TRUE(IsFrameStream("/recordings/run 1.oni"));
+  const fs::path dir = testing::ScratchDir("temporal_sources_" + std::to_string(getpid()));
+  EXPECT_FALSE(IsFrameStream(dir.string()));  // a directory: depth PNGs or PCD files
+  EXPECT_FALSE(IsFrameStream((dir / "missing").string()));
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace clutterseg::daemon
