@@ -131,7 +131,7 @@ for t in "${targets[@]}"; do
   finding="none"
   if [ "${rc}" -ne 0 ] || [ "${after}" -gt "${before}" ]; then
     status=1
-    kind=$(grep -m1 -oE 'ERROR: (AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|libFuzzer): [a-z-]+|runtime error|fuzz invariant violated|deadly signal|timeout|out-of-memory' "${log}" || true)
+    kind=$(grep -m1 -oE 'ERROR: (AddressSanitizer|LeakSanitizer|UndefinedBehaviorSanitizer|libFuzzer): [a-z-]+|runtime error|fuzz invariant violated|deadly signal|timeout|out-of-memory' "${log}" | head -1 || true)
     artifact=$(sed -n 's/.*Test unit written to \(.*\)$/\1/p' "${log}" | tail -1)
     finding="**${kind:-exit ${rc}}** (${artifact:-see ${log}})"
   fi
