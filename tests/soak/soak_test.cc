@@ -19,6 +19,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -162,6 +163,25 @@ double MeanRss(const std::vector<Sample>& s, size_t begin, size_t end) {
   return end > begin ? sum / static_cast<double>(end - begin) : 0.0;
 }
 
+// The smallest and largest RSS, descriptor and thread counts of the samples from `begin` on.
+struct Extremes {
+  int64_t rss_min{INT64_MAX}, rss_max{0};
+  int fd_min{1 << 30}, fd_max{0}, th_min{1 << 30}, th_max{0};
+};
+Extremes ExtremesFrom(const std::vector<Sample>& samples, size_t begin) {
+  Extremes e;
+  for (size_t i = begin; i < samples.size(); ++i) {
+    const daemon::testutil::ProcSample& p = samples[i].proc;
+    e.rss_min = std::min(e.rss_min, p.rss_kib);
+    e.rss_max = std::max(e.rss_max, p.rss_kib);
+    e.fd_min = std::min(e.fd_min, p.fds);
+    e.fd_max = std::max(e.fd_max, p.fds);
+    e.th_min = std::min(e.th_min, p.threads);
+    e.th_max = std::max(e.th_max, p.threads);
+  }
+  return e;
+}
+
 // Least-squares slope of RSS over time, KiB per minute.
 double RssSlopeKibPerMin(const std::vector<Sample>& s, size_t begin) {
   const double n = static_cast<double>(s.size() - begin);
@@ -225,13 +245,7 @@ TEST_F(Soak, FullSpeedLoopKeepsMemoryDescriptorsAndThreadsFlat) {
   for (size_t i = n / 4; i < n / 2; ++i) max_q2 = std::max(max_q2, r.samples[i].proc.rss_kib);
   for (size_t i = n / 2; i < n; ++i) max_late = std::max(max_late, r.samples[i].proc.rss_kib);
   const double slope = RssSlopeKibPerMin(r.samples, warm);
-  int fd_min = 1 << 30, fd_max = 0, th_min = 1 << 30, th_max = 0;
-  for (size_t i = warm; i < n; ++i) {
-    fd_min = std::min(fd_min, r.samples[i].proc.fds);
-    fd_max = std::max(fd_max, r.samples[i].proc.fds);
-    th_min = std::min(th_min, r.samples[i].proc.threads);
-    th_max = std::max(th_max, r.samples[i].proc.threads);
-  }
+  const Extremes x = ExtremesFrom(r.samples, warm);
   const double fps = static_cast<double>(r.done.published) / seconds;
   std::printf(
       "soak full speed: %.0f s, %zu samples, %lld frames published (%.1f fps), %lld dropped\n"
@@ -240,8 +254,8 @@ TEST_F(Soak, FullSpeedLoopKeepsMemoryDescriptorsAndThreadsFlat) {
       "  descriptors %d..%d, threads %d..%d after warm-up\n",
       seconds, n, static_cast<long long>(r.done.published), fps,
       static_cast<long long>(r.done.dropped), r.samples.front().proc.rss_kib / 1024.0, q2 / 1024.0,
-      q4 / 1024.0, (q4 - q2) / 1024.0, max_q2 / 1024.0, max_late / 1024.0, slope / 1024.0, fd_min,
-      fd_max, th_min, th_max);
+      q4 / 1024.0, (q4 - q2) / 1024.0, max_q2 / 1024.0, max_late / 1024.0, slope / 1024.0, x.fd_min,
+      x.fd_max, x.th_min, x.th_max);
   RecordProperty("published", static_cast<int>(r.done.published));
   RecordProperty("rss_q2_kib", static_cast<int>(q2));
   RecordProperty("rss_q4_kib", static_cast<int>(q4));
@@ -252,8 +266,8 @@ TEST_F(Soak, FullSpeedLoopKeepsMemoryDescriptorsAndThreadsFlat) {
   const double tolerance = std::max(4096.0, 0.02 * q2);
   EXPECT_LE(q4 - q2, tolerance) << "RSS grows: see soak_samples.csv";
   EXPECT_LE(static_cast<double>(max_late - max_q2), tolerance) << "RSS grows: see soak_samples.csv";
-  EXPECT_EQ(fd_min, fd_max) << "the number of open descriptors changes: see soak_samples.csv";
-  EXPECT_EQ(th_min, th_max) << "the number of threads changes: see soak_samples.csv";
+  EXPECT_EQ(x.fd_min, x.fd_max) << "the number of open descriptors changes: see soak_samples.csv";
+  EXPECT_EQ(x.th_min, x.th_max) << "the number of threads changes: see soak_samples.csv";
 }
 
 TEST_F(Soak, ThirtyHertzReplayDropsNothing) {
@@ -269,21 +283,14 @@ TEST_F(Soak, ThirtyHertzReplayDropsNothing) {
   ASSERT_FALSE(r.died_early) << "the daemon exited during the soak:\n" << r.err;
   EXPECT_EQ(r.exit_code, 0) << r.err.substr(r.err.size() > 4000 ? r.err.size() - 4000 : 0);
   ASSERT_TRUE(r.done.found) << r.err;
-  int th_min = 1 << 30, th_max = 0, fd_min = 1 << 30, fd_max = 0;
-  int64_t rss_max = 0;
-  for (const Sample& s : r.samples) {
-    th_min = std::min(th_min, s.proc.threads);
-    th_max = std::max(th_max, s.proc.threads);
-    fd_min = std::min(fd_min, s.proc.fds);
-    fd_max = std::max(fd_max, s.proc.fds);
-    rss_max = std::max(rss_max, s.proc.rss_kib);
-  }
+  const Extremes x = ExtremesFrom(r.samples, 0);
   std::printf(
       "soak 30 Hz (%s): %.0f s, %lld captured, %lld published (%.1f fps), %lld dropped; "
       "RSS max %.1f MiB, descriptors %d..%d, threads %d..%d\n",
       full_res ? "640x480" : "320x240", seconds, static_cast<long long>(r.done.captured),
       static_cast<long long>(r.done.published), static_cast<double>(r.done.published) / seconds,
-      static_cast<long long>(r.done.dropped), rss_max / 1024.0, fd_min, fd_max, th_min, th_max);
+      static_cast<long long>(r.done.dropped), x.rss_max / 1024.0, x.fd_min, x.fd_max, x.th_min,
+      x.th_max);
   RecordProperty("dropped", static_cast<int>(r.done.dropped));
   // About 30 frames per second were captured (the recording's rate), and none was dropped.
   EXPECT_GT(r.done.captured, static_cast<int64_t>(seconds * 30 * 0.5));
@@ -417,17 +424,7 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
       << "too few samples after the warm-up: raise CLUTTERSEG_SOAK_HOUR_SECONDS or lower "
          "CLUTTERSEG_SOAK_HOUR_SAMPLE_SECONDS";
   const daemon::testutil::ProcSample base = r.samples[ref].proc;
-  int64_t rss_min = base.rss_kib, rss_max = base.rss_kib;
-  int fd_min = base.fds, fd_max = base.fds, th_min = base.threads, th_max = base.threads;
-  for (size_t i = ref; i < r.samples.size(); ++i) {
-    const daemon::testutil::ProcSample& p = r.samples[i].proc;
-    rss_min = std::min(rss_min, p.rss_kib);
-    rss_max = std::max(rss_max, p.rss_kib);
-    fd_min = std::min(fd_min, p.fds);
-    fd_max = std::max(fd_max, p.fds);
-    th_min = std::min(th_min, p.threads);
-    th_max = std::max(th_max, p.threads);
-  }
+  const Extremes x = ExtremesFrom(r.samples, ref);
   const LogCounts log_counts = CountLog(log);
   const daemon::LcmLogScan scan = daemon::ScanLcmLog(log);
   const int reloaded = CountLines(r.err, "SIGHUP: segmenter parameters reloaded");
@@ -445,10 +442,10 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
       static_cast<double>(r.done.published) / seconds, static_cast<long long>(r.done.dropped),
       static_cast<long long>(r.done.publish_failures),
       r.samples.empty() ? 0.0 : r.samples.front().proc.rss_kib / 1024.0, base.rss_kib / 1024.0,
-      rss_min / 1024.0, rss_max / 1024.0,
-      100.0 * static_cast<double>(rss_min - base.rss_kib) / static_cast<double>(base.rss_kib),
-      100.0 * static_cast<double>(rss_max - base.rss_kib) / static_cast<double>(base.rss_kib),
-      fd_min, fd_max, th_min, th_max, base.fds, base.threads,
+      x.rss_min / 1024.0, x.rss_max / 1024.0,
+      100.0 * static_cast<double>(x.rss_min - base.rss_kib) / static_cast<double>(base.rss_kib),
+      100.0 * static_cast<double>(x.rss_max - base.rss_kib) / static_cast<double>(base.rss_kib),
+      x.fd_min, x.fd_max, x.th_min, x.th_max, base.fds, base.threads,
       static_cast<long long>(log_counts.objects), static_cast<long long>(log_counts.labels),
       static_cast<long long>(log_counts.status), scan.complete ? "whole" : scan.problem.c_str(),
       static_cast<double>(scan.file_bytes) / (1024.0 * 1024.0), r.reloads, reloaded, reload_failed,
@@ -456,18 +453,18 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
   RecordProperty("published", static_cast<int>(r.done.published));
   RecordProperty("dropped", static_cast<int>(r.done.dropped));
   RecordProperty("rss_ref_kib", static_cast<int>(base.rss_kib));
-  RecordProperty("rss_max_kib", static_cast<int>(rss_max));
+  RecordProperty("rss_max_kib", static_cast<int>(x.rss_max));
 
   // Memory, descriptors and threads flat within 5 % of the first sample after the warm-up.
   auto within = [](double value, double reference) {
     return std::abs(value - reference) <= 0.05 * reference;
   };
-  EXPECT_TRUE(within(static_cast<double>(rss_max), static_cast<double>(base.rss_kib)) &&
-              within(static_cast<double>(rss_min), static_cast<double>(base.rss_kib)))
+  EXPECT_TRUE(within(static_cast<double>(x.rss_max), static_cast<double>(base.rss_kib)) &&
+              within(static_cast<double>(x.rss_min), static_cast<double>(base.rss_kib)))
       << "RSS leaves 5 % of " << base.rss_kib << " KiB: see soak_samples.csv";
-  EXPECT_TRUE(within(fd_min, base.fds) && within(fd_max, base.fds))
+  EXPECT_TRUE(within(x.fd_min, base.fds) && within(x.fd_max, base.fds))
       << "the number of open descriptors changes: see soak_samples.csv";
-  EXPECT_TRUE(within(th_min, base.threads) && within(th_max, base.threads))
+  EXPECT_TRUE(within(x.th_min, base.threads) && within(x.th_max, base.threads))
       << "the number of threads changes: see soak_samples.csv";
 
   // The loop ran at the recorded rate: about 30 frames per second were captured.
