@@ -74,6 +74,7 @@ struct DoneCounts {
   int64_t published{0};
   int64_t dropped{0};
   int64_t publish_failures{0};
+  int64_t publish_dropped{0};  // frames dropped in front of a transport that fell behind
 };
 
 DoneCounts ParseDone(const std::string& err) {
@@ -88,6 +89,10 @@ DoneCounts ParseDone(const std::string& err) {
     d.published = std::stoll(m[3]);
     d.dropped = std::stoll(m[4]);
     d.publish_failures = std::stoll(m[5]);
+    static const std::regex kBeforeTransport(R"((\d+) dropped before the transport)");
+    std::smatch b;
+    const std::string rest = m.suffix().str();
+    if (std::regex_search(rest, b, kBeforeTransport)) d.publish_dropped = std::stoll(b[1]);
   }
   return d;
 }
@@ -118,7 +123,9 @@ PhaseResult RunPhase(const std::vector<std::string>& argv, double seconds, doubl
   };
   const auto t0 = Clock::now();
   const auto end = t0 + after(seconds);
-  auto next = t0 + after(sample_s);
+  // Samples fall halfway between two reloads, so that none catches the daemon in the middle
+  // of re-reading its configuration (an extra descriptor for a moment).
+  auto next = t0 + after(sample_s + (reload_s > 0.0 ? reload_s / 2.0 : 0.0));
   auto next_reload = reload_s > 0.0 ? t0 + after(reload_s) : Clock::time_point::max();
   while (Clock::now() < end) {
     daemon::testutil::Drain(&child, &r.err);
@@ -414,7 +421,13 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
                });
   AppendCsv("hour_30hz", r.samples, /*truncate=*/false);
   ASSERT_FALSE(r.died_early) << "the daemon exited during the soak:\n" << r.err;
-  EXPECT_EQ(r.exit_code, 0) << r.err.substr(r.err.size() > 4000 ? r.err.size() - 4000 : 0);
+  // Exit 0, or 5 when something was not delivered, which the last line must then name: on a
+  // shared machine frames the recording's player could not deliver in time and frames dropped
+  // in front of a log on a busy disk are counted and reported, not hidden.
+  const size_t incomplete = r.err.rfind("incomplete: ");
+  EXPECT_TRUE(r.exit_code == 0 || (r.exit_code == 5 && incomplete != std::string::npos))
+      << "exit " << r.exit_code << ":\n"
+      << r.err.substr(r.err.size() > 4000 ? r.err.size() - 4000 : 0);
   ASSERT_TRUE(r.done.found) << r.err.substr(r.err.size() > 4000 ? r.err.size() - 4000 : 0);
 
   // Flat within 5 % after the warm-up: every later sample against the first one after it.
@@ -432,7 +445,7 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
   std::printf(
       "soak hour (30 Hz, 640x480 room, loop): %.0f s, %zu samples (warm-up %.0f s), "
       "%lld captured, %lld processed, %lld published (%.1f fps), %lld dropped, %lld publish "
-      "failures\n"
+      "failures, %lld dropped before the transport\n"
       "  RSS MiB: first %.1f, after warm-up %.1f, then %.1f..%.1f (%+.2f %% .. %+.2f %%); "
       "descriptors %d..%d, threads %d..%d after warm-up (%d / %d at the reference)\n"
       "  log: %lld objects_t, %lld label_image_t, %lld status_t (%s, %.1f MiB); SIGHUP %d sent, "
@@ -441,6 +454,7 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
       static_cast<long long>(r.done.processed), static_cast<long long>(r.done.published),
       static_cast<double>(r.done.published) / seconds, static_cast<long long>(r.done.dropped),
       static_cast<long long>(r.done.publish_failures),
+      static_cast<long long>(r.done.publish_dropped),
       r.samples.empty() ? 0.0 : r.samples.front().proc.rss_kib / 1024.0, base.rss_kib / 1024.0,
       x.rss_min / 1024.0, x.rss_max / 1024.0,
       100.0 * static_cast<double>(x.rss_min - base.rss_kib) / static_cast<double>(base.rss_kib),
@@ -473,12 +487,20 @@ TEST_F(SoakHour, ThirtyHertzLoopWithReloadsStaysFlatAndCountsAgreeWithTheLog) {
   EXPECT_EQ(reloaded, r.reloads);
   EXPECT_EQ(reload_failed, 0);
   // The final line agrees with itself: a captured frame was segmented or dropped (at most the
-  // queue's frames were discarded by the stop), every segmented frame was published, nothing
-  // was refused by a local file.
+  // queue's frames were discarded by the stop), a segmented frame was published or dropped in
+  // front of the transport (and then named in the incomplete line), nothing was refused by a
+  // local file.
   EXPECT_GE(r.done.captured, r.done.processed + r.done.dropped);
   EXPECT_LE(r.done.captured - r.done.processed - r.done.dropped, 2 + 2)
       << "more frames unaccounted for than the queue (2) and the pipeline (2) hold";
-  EXPECT_EQ(r.done.published, r.done.processed);
+  EXPECT_EQ(r.done.published + r.done.publish_dropped, r.done.processed);
+  if (r.done.publish_dropped > 0) {
+    EXPECT_NE(r.err.find(std::to_string(r.done.publish_dropped) +
+                             " frames dropped in front of a transport that fell behind",
+                         incomplete),
+              std::string::npos)
+        << r.err.substr(incomplete == std::string::npos ? 0 : incomplete);
+  }
   EXPECT_EQ(r.done.publish_failures, 0);
   // ... and with the log: whole, one objects_t and one label_image_t per published frame, a
   // status_t about every second whose counters never go back and never pass the final line.
