@@ -207,6 +207,16 @@ double RssSlopeKibPerMin(const std::vector<Sample>& s, size_t begin) {
   return den > 0.0 ? num / den * 60.0 : 0.0;
 }
 
+// Writes a recording with clutterseg-synth --oni `path` `args`; false (saying why) on failure.
+bool WriteSynthOni(const std::string& path, const std::vector<std::string>& args) {
+  std::vector<std::string> argv = {CLUTTERSEG_SYNTH_EXE, "--oni", path};
+  argv.insert(argv.end(), args.begin(), args.end());
+  std::string err;
+  if (daemon::testutil::Run(argv, std::chrono::minutes(10), &err) == 0) return true;
+  std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
+  return false;
+}
+
 class Soak : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -216,11 +226,8 @@ class Soak : public ::testing::Test {
     // player rewinds (OpenNI2 repeat mode) every few seconds.
     daemon::testutil::WriteTabletopOni(oni_, 45);
     qvga_oni_ = (dir_ / "synth_qvga.oni").string();
-    std::string err;
-    have_qvga_ = daemon::testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", qvga_oni_, "--count", "30",
-                                        "--seed", "5", "--width", "320", "--height", "240"},
-                                       std::chrono::minutes(5), &err) == 0;
-    if (!have_qvga_) std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
+    have_qvga_ = WriteSynthOni(
+        qvga_oni_, {"--count", "30", "--seed", "5", "--width", "320", "--height", "240"});
   }
   static void TearDownTestSuite() {
     std::error_code ec;
@@ -376,11 +383,7 @@ class SoakHour : public ::testing::Test {
     // 640x480 depth + colour at 30 fps: the loop restarts every 2 s, so an hour holds 1,800
     // passes through the end of the recording.
     oni_ = (dir_ / "room60.oni").string();
-    std::string err;
-    have_oni_ =
-        daemon::testutil::Run({CLUTTERSEG_SYNTH_EXE, "--oni", oni_, "--count", "60", "--seed", "7"},
-                              std::chrono::minutes(10), &err) == 0;
-    if (!have_oni_) std::fprintf(stderr, "clutterseg-synth failed: %s\n", err.c_str());
+    have_oni_ = WriteSynthOni(oni_, {"--count", "60", "--seed", "7"});
   }
   static void TearDownTestSuite() {
     std::error_code ec;
