@@ -3,6 +3,8 @@
 #include <pthread.h>
 
 #include <algorithm>
+#include <cstdio>
+#include <string>
 
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/daemon/log.h"
@@ -10,6 +12,24 @@
 namespace clutterseg::daemon {
 
 using Clock = std::chrono::steady_clock;
+
+namespace {
+
+// A source that delivers no frame for this long while the daemon waits for one (a camera that
+// stopped streaming: a loose cable, USB bandwidth, a driver that hung) is named in a warning.
+constexpr std::chrono::seconds kNoFrameWarn{2};
+
+double SecondsSince(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+std::string OneDecimal(double x) {
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.1f", x);
+  return buf;
+}
+
+}  // namespace
 
 const char* ToString(Speed speed) { return speed == Speed::kMax ? "max" : "realtime"; }
 
@@ -96,6 +116,9 @@ void Capture::Loop() {
     bool pace_base = false;
     SetState(DeviceState::kStreaming);
     bool running = true;
+    // The last frame (or the start); whether the wait since then was named in a warning.
+    Clock::time_point last_frame = Clock::now();
+    bool no_frame_warned = false;
     while (running && !stop_.load()) {
       if (lockstep && params_.max_frames > 0 &&
           captured_.load() >= static_cast<uint64_t>(params_.max_frames)) {
@@ -134,12 +157,27 @@ void Capture::Loop() {
               break;
             }
           }
+          if (no_frame_warned) {
+            Log(LogLevel::kInfo, "frames from " + source_->Describe() + " again, after " +
+                                     OneDecimal(SecondsSince(last_frame)) + " s without");
+            no_frame_warned = false;
+          }
+          last_frame = Clock::now();
           queue_->push();
           captured_.fetch_add(1);
           if (device_state() != DeviceState::kStreaming) SetState(DeviceState::kStreaming);
           break;
         }
         case core::ReadStatus::kTimeout:
+          if (!no_frame_warned && !stop_.load() && Clock::now() - last_frame >= kNoFrameWarn) {
+            Log(LogLevel::kWarn,
+                "no frame from " + source_->Describe() + " for " +
+                    OneDecimal(SecondsSince(last_frame)) +
+                    " s; still waiting (a camera that stopped streaming: check its cable, power "
+                    "and USB bandwidth). Frames captured so far: " +
+                    std::to_string(captured_.load()));
+            no_frame_warned = true;
+          }
           break;
         case core::ReadStatus::kEndOfStream:
           if (stop_.load()) {
@@ -148,6 +186,7 @@ void Capture::Loop() {
             source_->Close();
             source_->Open();
             pace_base = false;
+            last_frame = Clock::now();
           } else {
             Log(LogLevel::kInfo, "end of stream: " + source_->Describe());
             SetState(DeviceState::kEndOfStream);
@@ -156,6 +195,7 @@ void Capture::Loop() {
           break;
         case core::ReadStatus::kDisconnected:
           Reconnect();
+          last_frame = Clock::now();  // the reconnection logs its own waits
           break;
         case core::ReadStatus::kError:
           SetState(DeviceState::kError);

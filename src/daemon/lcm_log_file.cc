@@ -3,11 +3,13 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
+#include <vector>
 
 #include <sys/file.h>
 #include <sys/stat.h>
@@ -28,6 +30,25 @@ void PutBe(uint64_t value, int bytes, unsigned char* out) {
 
 uint32_t Be32(const unsigned char* p) {
   return (uint32_t{p[0]} << 24) | (uint32_t{p[1]} << 16) | (uint32_t{p[2]} << 8) | uint32_t{p[3]};
+}
+
+// The first byte after `from` where a whole event starts (a sync word and a header whose
+// channel and data lie within the file's `size` bytes), or -1. Reads `fd` in 1 MiB windows.
+int64_t FindWholeEventAfter(int fd, uint64_t from, uint64_t size) {
+  constexpr size_t kWindow = size_t{1} << 20;
+  std::vector<unsigned char> buf(kWindow + kHeader);
+  for (uint64_t base = from; base + kHeader <= size; base += kWindow) {
+    const size_t want = static_cast<size_t>(std::min<uint64_t>(kWindow + kHeader, size - base));
+    const ssize_t got = pread(fd, buf.data(), want, static_cast<off_t>(base));
+    if (got < static_cast<ssize_t>(kHeader)) return -1;
+    for (size_t i = 0; i + kHeader <= static_cast<size_t>(got) && i < kWindow; ++i) {
+      if (Be32(&buf[i]) != kSync) continue;
+      const uint32_t channel = Be32(&buf[i + 20]);
+      const uint64_t end = base + i + kHeader + channel + Be32(&buf[i + 24]);
+      if (channel > 0 && channel <= 1024 && end <= size) return static_cast<int64_t>(base + i);
+    }
+  }
+  return -1;
 }
 
 }  // namespace
@@ -128,6 +149,15 @@ LcmLogFile::LcmLogFile(const FileLogUrl& log) : log_(log) {
   next_event_number_ = static_cast<int64_t>(scan.events);
   end_ = scan.parsed_bytes;
   if (!scan.complete && scan.parsed_bytes < scan.file_bytes) {
+    // Damage inside the log (a whole event follows the bad bytes) is not a torn end: cutting
+    // there would throw away every event after it.
+    if (const int64_t next = FindWholeEventAfter(fd_, scan.parsed_bytes + 1, scan.file_bytes);
+        next >= 0) {
+      refuse(": " + scan.problem + ", but a whole event follows at byte " + std::to_string(next) +
+             ": the log is damaged inside, not torn at its end, and appending would cut the " +
+             std::to_string(scan.file_bytes - scan.parsed_bytes) +
+             " bytes after the damage; move it aside or write a new log (?mode=w)");
+    }
     // A torn last event (the previous writer died mid-event): LCM's readers would stop there
     // and never see what this run appends.
     if (ftruncate(fd_, static_cast<off_t>(scan.parsed_bytes)) != 0) {

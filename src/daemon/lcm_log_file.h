@@ -37,7 +37,8 @@ bool ParseFileLogUrl(const std::string& url, FileLogUrl* log);
 /// At open it (1) refuses a log another process is writing (an exclusive flock on the file; a
 /// second daemon would garble it), and (2) for ?mode=a, cuts a torn event off the end of an
 /// existing log (a run that was killed mid-event), so that the new events stay readable: LCM
-/// readers stop at the first bad event; ?mode=w empties the file. Each Write() puts one whole
+/// readers stop at the first bad event; a log damaged inside (a whole event follows the bad
+/// bytes) is refused rather than cut; ?mode=w empties the file. Each Write() puts one whole
 /// event into the file with one unbuffered write, or, when the file system refuses part of it
 /// (full, over quota, I/O error), cuts the part off again and returns false: the file holds
 /// whole events only, and exactly those Write() accepted.
@@ -52,7 +53,7 @@ class LcmLogFile {
   /// /dev/null is accepted as a log that discards every message (nothing to verify); any
   /// other file that is not a regular file (a FIFO, /dev/full, a directory) is refused.
   /// @throws std::runtime_error naming the file when it is not a regular file, is locked by
-  /// another process or cannot be opened, emptied or repaired.
+  /// another process, is damaged inside (?mode=a) or cannot be opened, emptied or repaired.
   explicit LcmLogFile(const FileLogUrl& log);
   ~LcmLogFile();
 

@@ -11,6 +11,7 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "clutterseg/daemon/lcm_log_file.h"
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
@@ -41,6 +42,15 @@ struct RunFrames {
 };
 
 RunFrames ReadRun(const std::string& path, const RegressOptions& o) {
+  // liblcm's reader stops without a word at the first damaged event (a run would be compared
+  // in part) and allocates whatever an event header claims: only whole logs, whose every
+  // event lies within the file, are read.
+  const LcmLogScan scan = ScanLcmLog(path);
+  if (!scan.complete) {
+    throw std::runtime_error(path + ": not a whole LCM log: " + scan.problem + " (after " +
+                             std::to_string(scan.events) + " whole events of " +
+                             std::to_string(scan.file_bytes) + " bytes)");
+  }
   lcm::LogFile log(path, "r");
   if (!log.good()) throw std::runtime_error(path + ": cannot open LCM log");
   RunFrames run;

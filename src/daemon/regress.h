@@ -38,7 +38,8 @@ struct RegressReport {
 
 /// Reads two LCM logs (objects_t and label_image_t channels), pairs frames by frame_seq,
 /// matches objects greedily by nearest centroid and compares counts, centroids and label
-/// masks. @throws std::runtime_error naming the file when a log cannot be read or decoded.
+/// masks. @throws std::runtime_error naming the file when a log cannot be read or decoded, or
+/// is not whole (a torn or damaged event: named with its byte offset).
 RegressReport CompareLogs(const std::string& log_a, const std::string& log_b,
                           const RegressOptions& options);
 

@@ -11,6 +11,8 @@
 #include <chrono>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -134,6 +136,36 @@ TEST_F(DaemonDelivery, ATornLogEndIsCutBeforeAppending) {
   size_t objects = 0;
   for (const testutil::LogEvent& ev : events) objects += ev.channel == "CLUTTERSEG_OBJECTS";
   EXPECT_EQ(objects, 2u * 6u) << "six frames from each run";
+}
+
+// Damage inside a log (an overwritten sync word with whole events after it) is not a torn end:
+// appending used to cut everything after the damage, saying "cut a torn last event". It is
+// refused, naming the byte, and the file is left as it was.
+TEST_F(DaemonDelivery, ALogDamagedInsideIsRefusedNotCut) {
+  const std::string log = Scratch("damaged.lcmlog");
+  std::string err;
+  ASSERT_EQ(testutil::Run(Args("file://" + log + "?mode=w"), seconds(60), &err), kExitOk) << err;
+  std::string bytes;
+  {
+    std::ifstream in(log, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const size_t second = bytes.find("\xED\xA1\xDA\x01", 4);
+  ASSERT_NE(second, std::string::npos);
+  bytes[second] = '\x7f';
+  {
+    std::ofstream out(log, std::ios::binary | std::ios::trunc);
+    out << bytes;
+  }
+  err.clear();
+  EXPECT_EQ(testutil::Run(Args("file://" + log + "?mode=a"), seconds(60), &err),
+            kExitLcmUnavailable)
+      << err;
+  EXPECT_NE(err.find("no sync word at byte " + std::to_string(second)), std::string::npos) << err;
+  EXPECT_NE(err.find("is damaged inside, not torn at its end"), std::string::npos) << err;
+  std::ifstream in(log, std::ios::binary);
+  const std::string after((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(after, bytes) << "the refused log was changed";
 }
 
 // A small tmpfs that the run fills: the messages that do not fit are counted as failures and

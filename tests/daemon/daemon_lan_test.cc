@@ -78,21 +78,23 @@ TEST(DaemonLan, TwoHostsPublishAndASubscriberOnAThirdReceivesEverything) {
       const CameraPose& p = poses[i];
       std::ofstream f(extrinsics);
       f.precision(12);
-      f << R"({"parent_frame": "base_link", "translation": [)" << p.t.x() << ", " << p.t.y()
-        << ", " << p.t.z() << R"(], "rotation_xyzw": [)" << p.q.x() << ", " << p.q.y() << ", "
-        << p.q.z() << ", " << p.q.w() << "]}\n";
+      f << R"({"parent_frame": "base_link", "translation": [)" << p.t.x() << ", " << p.t.y() << ", "
+        << p.t.z() << R"(], "rotation_xyzw": [)" << p.q.x() << ", " << p.q.y() << ", " << p.q.z()
+        << ", " << p.q.w() << "]}\n";
     }
-    daemons.push_back(testutil::Spawn(lan.host(static_cast<int>(i)).Exec(
-        {CLUTTERSEG_DAEMON_EXE, "--source", oni, "--speed", "realtime", "--lcm-url", kLanUrl,
-         "--set", "camera_name=" + cameras[i], "--set", "camera.extrinsics_file=" + extrinsics,
-         "--set", "lcm.lock_dir=" + (dir / ("locks_" + cameras[i])).string()})));
+    daemons.push_back(
+        testutil::Spawn(lan.host(static_cast<int>(i))
+                            .Exec({CLUTTERSEG_DAEMON_EXE, "--source", oni, "--speed", "realtime",
+                                   "--lcm-url", kLanUrl, "--set", "camera_name=" + cameras[i],
+                                   "--set", "camera.extrinsics_file=" + extrinsics, "--set",
+                                   "lcm.lock_dir=" + (dir / ("locks_" + cameras[i])).string()})));
     ASSERT_GT(daemons.back().pid, 0);
   }
   std::map<std::string, int64_t> published;
   for (size_t i = 0; i < cameras.size(); ++i) {
     std::string err;
     ASSERT_EQ(testutil::Wait(&daemons[i], seconds(120), &err), kExitOk) << cameras[i] << ":\n"
-                                                                         << err;
+                                                                        << err;
     published[cameras[i]] = testutil::DoneCount(err, "published");
     ASSERT_GT(published[cameras[i]], 0) << err;
   }

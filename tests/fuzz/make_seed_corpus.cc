@@ -1,6 +1,7 @@
 // Writes the seed corpora of the fuzz targets (tests/fuzz/corpus/<target>/) with the
 // project's own writers: tiny PCDs in each encoding, depth and colour PNGs, configuration
-// texts, ONI recordings and segmenter frames. Usage: fuzz_make_seed_corpus <corpus_dir>.
+// texts, ONI recordings, segmenter frames, LCM logs as the daemon writes them and labelled
+// PCDs as clutterseg-segment writes them. Usage: fuzz_make_seed_corpus <corpus_dir>.
 // Regression inputs found by fuzzing live beside the seeds and are not touched.
 
 #include <cmath>
@@ -15,9 +16,15 @@
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/types.h"
 #include "clutterseg/daemon/daemon_config.h"
+#include "clutterseg/daemon/lcm_log_file.h"
+#include "clutterseg/daemon/messages.h"
 #include "clutterseg/drivers/oni/oni_writer.h"
 #include "clutterseg/io/pcd.h"
 #include "clutterseg/io/png_io.h"
+#include "clutterseg/label_image_t.hpp"
+#include "clutterseg/objects_t.hpp"
+#include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/status_t.hpp"
 
 namespace clutterseg::fuzz {
 namespace {
@@ -156,6 +163,100 @@ void MakeSegmenter(const fs::path& dir) {
   WriteBytes(dir / "far_8x8.bin", SegmenterInput(core::DepthImage(8, 8, 65535), 48));
 }
 
+// Segmenter configurations (the `segmenter:` section clutterseg-segment and the Python
+// binding read): the defaults as the daemon writes them, and a few keys in flow style.
+void MakeSegmenterConfig(const fs::path& dir) {
+  WriteText(dir / "defaults.yaml", daemon::ConfigToYaml(daemon::DaemonConfig{}));
+  WriteText(dir / "few_keys.yaml",
+            "segmenter:\n  points: {min_depth_m: 0.5, max_depth_m: 2.0}\n  support:\n"
+            "    enabled: false\n");
+  WriteText(dir / "empty_section.yaml", "segmenter: {}\n");
+}
+
+// A frame's messages as the daemon publishes them: objects_t with two objects and the
+// label_image_t of the same frame.
+template <typename Message>
+void WriteEvent(daemon::LcmLogFile* log, const std::string& channel, const Message& msg) {
+  std::vector<uint8_t> bytes(static_cast<size_t>(msg.getEncodedSize()));
+  msg.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  if (!log->Write(channel, bytes.data(), bytes.size())) {
+    throw std::runtime_error("cannot write " + log->path() + ": " + log->last_error());
+  }
+}
+
+// LCM logs written by the daemon's own writer (daemon::LcmLogFile): two frames with each
+// label compression, a status_t, and the same log cut in the middle of its last event.
+void MakeLcmLog(const fs::path& dir) {
+  const daemon::LabelCompression compressions[] = {daemon::LabelCompression::kNone,
+                                                   daemon::LabelCompression::kRle,
+                                                   daemon::LabelCompression::kZlib};
+  for (const daemon::LabelCompression compression : compressions) {
+    const fs::path path =
+        dir / (std::string("two_frames_") + daemon::ToString(compression) + ".lcmlog");
+    {
+      daemon::FileLogUrl url;
+      url.path = path.string();
+      daemon::LcmLogFile log(url);
+      for (int f = 0; f < 2; ++f) {
+        pipeline::SegmentationResult r;
+        r.width = 8;
+        r.height = 6;
+        r.labels = core::LabelImage(8, 6, 0);
+        for (uint32_t id = 1; id <= 2; ++id) {
+          pipeline::Object o;
+          o.id = id;
+          o.num_points = 6;
+          o.centroid = {0.1f * static_cast<float>(id), 0.0f, 1.0f + 0.01f * static_cast<float>(f)};
+          o.aabb_min = o.centroid;
+          o.aabb_max = o.centroid;
+          r.objects.push_back(o);
+          for (int u = 0; u < 3; ++u) {
+            for (int v = 0; v < 2; ++v) r.labels.at(static_cast<int>(id) * 3 - 3 + u, v + 2) = id;
+          }
+        }
+        daemon::FrameInfo info;
+        info.frame_seq = f;
+        info.utime = 1000000 + 33333 * f;
+        info.camera_name = "camera";
+        info.intrinsics = core::DefaultKinectIntrinsics().Scaled(8, 6);
+        clutterseg::objects_t objects;
+        daemon::ToObjectsMessage(r, info, &objects);
+        clutterseg::label_image_t labels;
+        daemon::EncodeLabelImage(r.labels, info, compression, &labels);
+        WriteEvent(&log, "CLUTTERSEG_OBJECTS", objects);
+        WriteEvent(&log, "CLUTTERSEG_LABELS", labels);
+      }
+      clutterseg::status_t status;
+      status.camera_name = "camera";
+      status.frames_captured = status.frames_processed = status.frames_published = 2;
+      WriteEvent(&log, "CLUTTERSEG_STATUS", status);
+    }
+    if (compression == daemon::LabelCompression::kRle) {
+      const auto size = fs::file_size(path);
+      fs::copy_file(path, dir / "torn_end.lcmlog", fs::copy_options::overwrite_existing);
+      fs::resize_file(dir / "torn_end.lcmlog", size - 7);
+    }
+  }
+}
+
+// Labelled clouds as clutterseg-segment writes them (x y z rgba label) and as ground truth
+// comes (x y z label): organized and not, ascii and binary.
+void MakeEvalLabels(const fs::path& dir) {
+  const core::CameraIntrinsics k = core::DefaultKinectIntrinsics().Scaled(8, 6);
+  core::PointCloud cloud;
+  core::DepthToPointCloud(Tabletop(8, 6), k, nullptr, &cloud);
+  cloud.label.resize(cloud.xyz.size());
+  for (size_t i = 0; i < cloud.label.size(); ++i)
+    cloud.label[i] = static_cast<uint32_t>(i % 5) * 10;
+  io::WritePcd((dir / "labels_organized_ascii.pcd").string(), cloud, io::PcdEncoding::kAscii);
+  for (size_t i = 0; i < cloud.label.size(); ++i) cloud.label[i] = static_cast<uint32_t>(i % 3);
+  cloud.rgba.assign(cloud.xyz.size(), 0xFF808080u);
+  io::WritePcd((dir / "labels_rgba_binary.pcd").string(), cloud, io::PcdEncoding::kBinary);
+  WriteText(dir / "labels_nan_ascii.pcd",
+            "VERSION .7\nFIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F U\nCOUNT 1 1 1 1\n"
+            "WIDTH 3\nHEIGHT 1\nPOINTS 3\nDATA ascii\n0 0 1 1\nnan nan nan 1\n0.1 0 1 2\n");
+}
+
 }  // namespace
 }  // namespace clutterseg::fuzz
 
@@ -174,7 +275,10 @@ int main(int argc, char** argv) {
                    {"depth_png", clutterseg::fuzz::MakePng},
                    {"config_parser", clutterseg::fuzz::MakeConfig},
                    {"oni_reader", clutterseg::fuzz::MakeOni},
-                   {"segmenter", clutterseg::fuzz::MakeSegmenter}};
+                   {"segmenter", clutterseg::fuzz::MakeSegmenter},
+                   {"segmenter_config", clutterseg::fuzz::MakeSegmenterConfig},
+                   {"lcm_log", clutterseg::fuzz::MakeLcmLog},
+                   {"eval_labels", clutterseg::fuzz::MakeEvalLabels}};
     for (const auto& t : targets) {
       fs::create_directories(root / t.target);
       t.make(root / t.target);
