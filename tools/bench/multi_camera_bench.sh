@@ -9,6 +9,9 @@
 #   BUILD_DIR defaults to build/release, FRAMES (published per camera) to 600.
 #   DAEMON_ARGS adds options to every daemon (e.g. "--threads 1 --set processing.pipeline_depth=2").
 #   WARMUP (default 30) frames per camera are left out of the percentiles.
+#   STAGGER_MS (default 0) waits this long between two daemons' starts: free-running cameras
+#   deliver their frames at unrelated phases, daemons started together replay theirs at
+#   nearly the same instants (the worst case: every frame meets the others' frames).
 # Make recordings with: clutterseg-synth --oni out.oni --count 360 --seed 606
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -35,6 +38,7 @@ for oni in "$@"; do
     --set camera_name="cam$i" --lcm-url "file://$tmp/cam$i.lcmlog?mode=w" --log-level warn \
     ${DAEMON_ARGS:-} > "$tmp/cam$i.out" 2>&1 &
   pids+=($!)
+  [ "${STAGGER_MS:-0}" = 0 ] || sleep "$(awk -v ms="$STAGGER_MS" 'BEGIN { printf "%.3f", ms / 1000 }')"
 done
 rc=0
 for p in "${pids[@]}"; do wait "$p" || rc=$?; done
