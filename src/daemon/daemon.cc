@@ -302,7 +302,10 @@ struct Daemon::Impl {
   // ---- dispatcher: frame queue -> runner -> frame queue -----------------------------------
 
   // A new filter (its history starts afresh) or none. Dispatcher thread, or before it starts.
+  // Parameters equal to the running filter's keep it and its history: a reload that changes
+  // other keys does not make a still scene flicker.
   void SetTemporalFilter(const pipeline::TemporalFilterParams& params) {
+    if (temporal && params == temporal->params()) return;
     temporal.reset();
     if (stream_source && params.enabled) {
       temporal = std::make_unique<pipeline::TemporalDepthFilter>(params);

@@ -37,6 +37,7 @@ struct TemporalFilterParams {
 
   /// @throws std::invalid_argument naming the key (`segmenter.temporal.<field>`) and value.
   void ValidateOrThrow() const;
+  bool operator==(const TemporalFilterParams&) const = default;
 };
 
 /// Averages each pixel's depth over the frames in which it stays within the sensor's noise

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <thread>
 #include <vector>
@@ -15,6 +16,7 @@
 
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/messages.h"
+#include "clutterseg/depth_image_t.hpp"
 #include "clutterseg/drivers/openni2/openni2_source.h"
 #include "clutterseg/label_image_t.hpp"
 #include "clutterseg/objects_t.hpp"
@@ -33,6 +35,7 @@ struct Received {
   std::vector<clutterseg::objects_t> objects;
   std::vector<clutterseg::label_image_t> labels;
   std::vector<clutterseg::status_t> status;
+  std::vector<clutterseg::depth_image_t> depth;  // with lcm.publish_depth
   void OnObjects(const lcm::ReceiveBuffer*, const std::string&, const clutterseg::objects_t* m) {
     objects.push_back(*m);
   }
@@ -76,6 +79,9 @@ RunResult RunDaemon(const DaemonConfig& c, std::unique_ptr<core::FrameSource> so
   bus.Subscribe<clutterseg::status_t>(c.lcm.status_channel, [&run](const clutterseg::status_t& m) {
     run.got.OnStatus(nullptr, {}, &m);
   });
+  bus.Subscribe<clutterseg::depth_image_t>(
+      c.lcm.depth_channel,
+      [&run](const clutterseg::depth_image_t& m) { run.got.depth.push_back(m); });
   {
     Daemon dut(c, std::move(source), &bus);
     if (before_start) before_start(&dut);
@@ -277,6 +283,59 @@ TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
   EXPECT_EQ(run.got.objects[0].num_objects, run.got.objects[1].num_objects);
   for (size_t i = 2; i < 5; ++i) EXPECT_EQ(run.got.objects[i].num_objects, 0) << "frame " << i;
   EXPECT_EQ(run.stats.param_reloads, 1u);
+}
+
+// A reload applies between frames 2 and 3 of a still scene; the depths the daemon segmented
+// (published with lcm.publish_depth) show whether the temporal filter kept its history.
+std::vector<std::vector<uint8_t>> StillSceneDepthsWithReload(
+    const std::function<void(pipeline::SegmenterParams*)>& change) {
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 5;
+  s.gate_after = 2;
+  DaemonConfig c = MemqConfig();
+  c.lcm.publish_labels = false;
+  c.lcm.publish_depth = true;
+  auto source = std::make_unique<testutil::ScriptedSource>(testutil::StillTabletopFrames(5), s);
+  testutil::ScriptedSource* raw = source.get();
+  const RunResult run = RunDaemon(c, std::move(source), [&](Daemon* d) {
+    while (d->stats().frames_published < 2)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    if (change) {
+      pipeline::SegmenterParams p = c.segmenter;
+      change(&p);
+      d->UpdateSegmenterParams(p);
+    }
+    raw->OpenGate();
+  });
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  std::vector<std::vector<uint8_t>> depths;
+  for (const clutterseg::depth_image_t& m : run.got.depth) depths.push_back(m.data);
+  EXPECT_EQ(depths.size(), 5u);
+  return depths;
+}
+
+TEST(DaemonScripted, AReloadKeepsTheTemporalFilterUnlessItsParametersChange) {
+  const auto plain = StillSceneDepthsWithReload({});
+  const auto other_keys = StillSceneDepthsWithReload(
+      [](pipeline::SegmenterParams* p) { p->objects.min_object_points += 1; });
+  const auto new_band = StillSceneDepthsWithReload(
+      [](pipeline::SegmenterParams* p) { p->temporal.band_at_1m_m *= 1.25f; });
+  const auto switched_off =
+      StillSceneDepthsWithReload([](pipeline::SegmenterParams* p) { p->temporal.enabled = false; });
+  ASSERT_EQ(plain.size(), 5u);
+  ASSERT_EQ(other_keys.size(), 5u);
+  ASSERT_EQ(new_band.size(), 5u);
+  ASSERT_EQ(switched_off.size(), 5u);
+  // Before the reload every run filters alike.
+  EXPECT_TRUE(switched_off[1] == plain[1]);
+  // Other keys reloaded: the filter and its history carry on, frame for frame.
+  for (size_t k = 0; k < plain.size(); ++k) EXPECT_TRUE(other_keys[k] == plain[k]) << "frame " << k;
+  // Temporal keys reloaded: a new filter, whose first frame passes unfiltered (as with the
+  // filter switched off), while the running filter averages it with frames 0-1.
+  EXPECT_TRUE(new_band[2] == switched_off[2]);
+  EXPECT_FALSE(new_band[2] == plain[2]);
+  EXPECT_FALSE(new_band[3] == switched_off[3]);  // and the new filter averages from then on
 }
 
 TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {

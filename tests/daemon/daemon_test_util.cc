@@ -25,7 +25,11 @@
 
 namespace clutterseg::daemon::testutil {
 
-std::vector<core::RgbdFrame> TabletopFrames(int n) {
+namespace {
+
+// Frame i renders scene `scene_seed(i)` with sensor noise seed i + 1.
+template <typename SceneSeed>
+std::vector<core::RgbdFrame> RenderTabletops(int n, SceneSeed scene_seed) {
   synth::SceneParams scene;
   scene.min_objects = 4;
   scene.max_objects = 8;
@@ -34,8 +38,8 @@ std::vector<core::RgbdFrame> TabletopFrames(int n) {
   synth::RenderedFrame rendered;
   for (int i = 0; i < n; ++i) {
     const uint64_t seed = static_cast<uint64_t>(i) + 1;
-    synth::RenderScene(synth::GenerateScene(scene, seed), scene.intrinsics, sensor, seed,
-                       &rendered);
+    synth::RenderScene(synth::GenerateScene(scene, scene_seed(seed)), scene.intrinsics, sensor,
+                       seed, &rendered);
     core::RgbdFrame& f = frames[static_cast<size_t>(i)];
     f.intrinsics = rendered.intrinsics;
     f.depth = rendered.depth;
@@ -43,6 +47,16 @@ std::vector<core::RgbdFrame> TabletopFrames(int n) {
     core::StampReplayFrame(static_cast<uint64_t>(i), 33333, "camera", &f);
   }
   return frames;
+}
+
+}  // namespace
+
+std::vector<core::RgbdFrame> TabletopFrames(int n) {
+  return RenderTabletops(n, [](uint64_t seed) { return seed; });
+}
+
+std::vector<core::RgbdFrame> StillTabletopFrames(int n) {
+  return RenderTabletops(n, [](uint64_t) { return uint64_t{1}; });
 }
 
 void WriteTabletopOni(const std::string& path, int frames) {

@@ -24,6 +24,9 @@ namespace clutterseg::daemon::testutil {
 /// structured-light sensor model and registered colour. Needs no downloaded data; the same
 /// frames in every run.
 std::vector<core::RgbdFrame> TabletopFrames(int n);
+/// One still tabletop (TabletopFrames' first scene) in every frame, with fresh sensor noise
+/// per frame, as a fixed camera sees it.
+std::vector<core::RgbdFrame> StillTabletopFrames(int n);
 
 /// Writes TabletopFrames(frames) as an ONI recording (depth + colour, 30 fps timestamps) with
 /// drivers::OniWriter. @throws std::runtime_error when the file cannot be written.
