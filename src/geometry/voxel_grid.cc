@@ -355,9 +355,10 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
         for (size_t j = offset[p]; j < offset[p + 1]; ++j) {
           const size_t i = band_points_[j];
           const uint64_t key = keys[i];
-          // Equal keys lie in the same range, so the left and upper pixels' voxels are this
-          // range's when their keys match.
-          if (i > 0 && keys[i - 1] == key && (!organized || i % w != 0)) {
+          // Equal keys lie in the same range, so the previous and upper pixels' voxels are
+          // this range's when their keys match (the previous pixel may end the row above: an
+          // equal key is the same voxel wherever it is).
+          if (i > 0 && keys[i - 1] == key) {
             point_voxel[i] = point_voxel[i - 1];
             continue;
           }
