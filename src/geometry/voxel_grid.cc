@@ -355,9 +355,10 @@ void Voxelizer::Voxelize(const core::PointCloud& cloud, bool mean_color, VoxelGr
         for (size_t j = offset[p]; j < offset[p + 1]; ++j) {
           const size_t i = band_points_[j];
           const uint64_t key = keys[i];
-          // Equal keys lie in the same range, so the left and upper pixels' voxels are this
-          // range's when their keys match.
-          if (i > 0 && keys[i - 1] == key && (!organized || i % w != 0)) {
+          // Equal keys lie in the same range, so the previous and upper pixels' voxels are
+          // this range's when their keys match (the previous pixel may end the row above: an
+          // equal key is the same voxel wherever it is).
+          if (i > 0 && keys[i - 1] == key) {
             point_voxel[i] = point_voxel[i - 1];
             continue;
           }
@@ -483,6 +484,21 @@ void Voxelizer::CollectBandPoints(size_t band, size_t begin, size_t end) {
   // Counted first, then written: the band's slice of band_points_ holds its valid points
   // range by range, each in point order.
   size_t* const offset = &band_offset_[band * (num_partitions + 1)];
+  const uint64_t* const keys = pixel_key_.data();
+  uint32_t* const out = band_points_.data();
+  if (num_partitions == 1) {
+    // One range (one thread): the band's valid points in point order, written without a
+    // branch (valid and invalid keys interleave along object edges); band_points_ has a slot
+    // for every point, so the store past the last valid one stays inside the band.
+    size_t next = begin;
+    for (size_t i = begin; i < end; ++i) {
+      out[next] = static_cast<uint32_t>(i);
+      next += keys[i] != kInvalidKey ? 1 : 0;
+    }
+    offset[0] = begin;
+    offset[1] = next;
+    return;
+  }
   std::fill(offset, offset + num_partitions + 1, 0);
   for (size_t i = begin; i < end; ++i) {
     if (pixel_key_[i] != kInvalidKey) ++offset[partition_of(pixel_key_[i]) + 1];

@@ -450,19 +450,20 @@ void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationRes
         const Eigen::Matrix3f axes_t = f.axes.transpose();
         const Eigen::Vector3f centroid = f.centroid;
         Eigen::Vector3f lo = local[l - 1].lo, hi = local[l - 1].hi;
+        // One pass over the run: the extents and the copy of its valid points.
+        size_t next = point_start_[band * count + (l - 1)];
+        core::Vec3f* const points = points_.data();
         for (size_t k = i; k < run_end; ++k) {
-          const core::Vec3f& p = xyz[k];
+          const core::Vec3f p = xyz[k];
           if (!core::IsValid(p)) continue;
           const Eigen::Vector3f q = axes_t * (Eigen::Vector3f(p.x, p.y, p.z) - centroid);
           lo = lo.cwiseMin(q);
           hi = hi.cwiseMax(q);
+          points[next++] = p;
         }
         local[l - 1].lo = lo;
         local[l - 1].hi = hi;
-        size_t& next = point_start_[band * count + (l - 1)];
-        for (size_t k = i; k < run_end; ++k) {
-          if (core::IsValid(xyz[k])) points_[next++] = xyz[k];
-        }
+        point_start_[band * count + (l - 1)] = next;
       }
       i = run_end;
     }
