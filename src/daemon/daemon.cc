@@ -89,6 +89,8 @@ struct Daemon::Impl {
   // dispatcher to each frame before it is submitted, so in frame order whatever the lanes.
   const bool stream_source{IsFrameStream(config.source)};
   std::unique_ptr<pipeline::TemporalDepthFilter> temporal;  // dispatcher thread only
+  bool have_filtered_sequence{false};                       // dispatcher thread only
+  uint64_t last_filtered_sequence{0};                       // dispatcher thread only
   std::mutex temporal_params_mutex;
   std::unique_ptr<pipeline::TemporalFilterParams> pending_temporal_params;  // applied next
   pipeline::FrameRunner runner;  // last: its lanes use everything above
@@ -322,6 +324,13 @@ struct Daemon::Impl {
         pending_temporal_params.reset();
       }
     }
+    // A sequence number that does not increase is a restarted source (a reopened device):
+    // its history starts afresh, as its tracks do (pipeline::Tracker).
+    if (temporal && have_filtered_sequence && frame->sequence <= last_filtered_sequence) {
+      temporal->Reset();
+    }
+    have_filtered_sequence = true;
+    last_filtered_sequence = frame->sequence;
     if (temporal && frame->cloud.empty() && !frame->depth.empty()) {
       temporal->Apply(&frame->depth);
     }

@@ -338,6 +338,45 @@ TEST(DaemonScripted, AReloadKeepsTheTemporalFilterUnlessItsParametersChange) {
   EXPECT_FALSE(new_band[3] == switched_off[3]);  // and the new filter averages from then on
 }
 
+// A still scene whose device is lost after frame 3 and reopened: the depths segmented.
+std::vector<std::vector<uint8_t>> StillSceneDepthsWithReopen(bool sequence_from_open,
+                                                             bool temporal) {
+  testutil::Script s;
+  s.live = false;
+  s.total_frames = 6;
+  s.disconnect_after = 3;
+  s.sequence_from_open = sequence_from_open;
+  DaemonConfig c = MemqConfig();
+  c.capture.reconnect_backoff_min_s = 0.01;
+  c.capture.reconnect_backoff_max_s = 0.02;
+  c.lcm.publish_labels = false;
+  c.lcm.publish_depth = true;
+  c.segmenter.temporal.enabled = temporal;
+  const RunResult run =
+      RunDaemon(c, std::make_unique<testutil::ScriptedSource>(testutil::StillTabletopFrames(6), s));
+  EXPECT_EQ(run.exit_code, kExitOk) << run.error;
+  EXPECT_EQ(run.stats.reconnect_attempts, 1u);
+  std::vector<std::vector<uint8_t>> depths;
+  for (const clutterseg::depth_image_t& m : run.got.depth) depths.push_back(m.data);
+  EXPECT_EQ(depths.size(), 6u);
+  return depths;
+}
+
+TEST(DaemonScripted, AReopenedDeviceStartsTheTemporalFilterAfresh) {
+  const auto raw = StillSceneDepthsWithReopen(true, false);
+  const auto reopened = StillSceneDepthsWithReopen(true, true);
+  const auto continued = StillSceneDepthsWithReopen(false, true);
+  ASSERT_EQ(raw.size(), 6u);
+  ASSERT_EQ(reopened.size(), 6u);
+  ASSERT_EQ(continued.size(), 6u);
+  EXPECT_FALSE(reopened[2] == raw[2]);  // filtered before the loss
+  // The first frame after the reopen (sequence 0 again) has no history...
+  EXPECT_TRUE(reopened[3] == raw[3]);
+  EXPECT_FALSE(reopened[4] == raw[4]);  // ...and the new history starts with it
+  // A source whose sequence numbers continue keeps its history across the gap.
+  EXPECT_FALSE(continued[3] == raw[3]);
+}
+
 TEST(DaemonScripted, StopRequestFinishesInFlightFramesAndExitsZero) {
   auto frames = testutil::TabletopFrames(1);
   testutil::Script s;

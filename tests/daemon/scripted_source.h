@@ -26,6 +26,9 @@ struct Script {
   int error_after{-1};               ///< kError after this many frames
   int gate_after{-1};                ///< Read blocks after this many frames until OpenGate()
   std::atomic<int>* opens{nullptr};  ///< counts Open() calls when set (outlives the source)
+  /// Frame sequence numbers count from 0 after every Open(), as a reopened OpenNI2 device's
+  /// do (false: they continue across a reopen).
+  bool sequence_from_open{false};
 };
 
 class ScriptedSource final : public core::FrameSource {
@@ -40,6 +43,7 @@ class ScriptedSource final : public core::FrameSource {
       throw std::runtime_error("scripted device not found");
     }
     open_ = true;
+    opened_at_ = served_;
   }
   core::ReadStatus Read(int timeout_ms, core::RgbdFrame* frame) override {
     if (!open_) return core::ReadStatus::kError;
@@ -66,7 +70,8 @@ class ScriptedSource final : public core::FrameSource {
     }
     const core::RgbdFrame& src = frames_[static_cast<size_t>(served_) % frames_.size()];
     frame->utime = static_cast<int64_t>(served_) * 33333;
-    frame->sequence = static_cast<uint64_t>(served_);
+    frame->sequence =
+        static_cast<uint64_t>(script_.sequence_from_open ? served_ - opened_at_ : served_);
     frame->intrinsics = src.intrinsics;
     frame->depth = src.depth;
     frame->color = src.color;
@@ -90,6 +95,7 @@ class ScriptedSource final : public core::FrameSource {
   std::vector<core::RgbdFrame> frames_;
   Script script_;
   int served_{0};
+  int opened_at_{0};  // served_ at the last Open()
   bool open_{false};
   bool disconnected_{false};
   int pending_failures_{0};
