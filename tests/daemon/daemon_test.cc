@@ -285,6 +285,14 @@ TEST(DaemonScripted, NewParametersApplyBetweenFrames) {
   EXPECT_EQ(run.stats.param_reloads, 1u);
 }
 
+// The depth images a run published (compressed payloads, one per frame), expecting `frames`.
+std::vector<std::vector<uint8_t>> DepthPayloads(const RunResult& run, size_t frames) {
+  std::vector<std::vector<uint8_t>> depths;
+  for (const clutterseg::depth_image_t& m : run.got.depth) depths.push_back(m.data);
+  EXPECT_EQ(depths.size(), frames);
+  return depths;
+}
+
 // A reload applies between frames 2 and 3 of a still scene; the depths the daemon segmented
 // (published with lcm.publish_depth) show whether the temporal filter kept its history.
 std::vector<std::vector<uint8_t>> StillSceneDepthsWithReload(
@@ -309,10 +317,7 @@ std::vector<std::vector<uint8_t>> StillSceneDepthsWithReload(
     raw->OpenGate();
   });
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
-  std::vector<std::vector<uint8_t>> depths;
-  for (const clutterseg::depth_image_t& m : run.got.depth) depths.push_back(m.data);
-  EXPECT_EQ(depths.size(), 5u);
-  return depths;
+  return DepthPayloads(run, 5);
 }
 
 TEST(DaemonScripted, AReloadKeepsTheTemporalFilterUnlessItsParametersChange) {
@@ -356,10 +361,7 @@ std::vector<std::vector<uint8_t>> StillSceneDepthsWithReopen(bool sequence_from_
       RunDaemon(c, std::make_unique<testutil::ScriptedSource>(testutil::StillTabletopFrames(6), s));
   EXPECT_EQ(run.exit_code, kExitOk) << run.error;
   EXPECT_EQ(run.stats.reconnect_attempts, 1u);
-  std::vector<std::vector<uint8_t>> depths;
-  for (const clutterseg::depth_image_t& m : run.got.depth) depths.push_back(m.data);
-  EXPECT_EQ(depths.size(), 6u);
-  return depths;
+  return DepthPayloads(run, 6);
 }
 
 TEST(DaemonScripted, AReopenedDeviceStartsTheTemporalFilterAfresh) {
