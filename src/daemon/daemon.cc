@@ -98,6 +98,7 @@ struct Daemon::Impl {
   bool joined{false};
 
   std::atomic<bool> stop{false};
+  std::atomic<bool> interrupted{false};  // stopped from outside (a signal), not by the run
   std::atomic<uint64_t> processed{0};
   std::atomic<uint64_t> handed{0};  // frames handed to the sinks
   std::atomic<uint64_t> discarded{0};
@@ -352,7 +353,9 @@ struct Daemon::Impl {
     ReleaseFinished(&finished_frames);
     if (runner.done_error().size() > 0) Fail("completing a frame failed: " + runner.done_error());
     // Everything segmented is handed on: let the sinks finish, then report the end.
-    if (overlay) overlay->Finish();
+    // A stop signal does not wait for the overlays still queued (the lowest-priority writer
+    // may take seconds for them on a loaded machine): dropped and counted.
+    if (overlay) overlay->Finish(interrupted.load());
     publisher.Flush();
     status->Finish();
     publisher.Finish();
@@ -436,7 +439,10 @@ void Daemon::Start() {
   d.capture.Start();
 }
 
-void Daemon::RequestStop() { impl_->RequestStop(); }
+void Daemon::RequestStop() {
+  impl_->interrupted.store(true);
+  impl_->RequestStop();
+}
 
 void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
   impl_->runner.UpdateParams(params);  // validates first
