@@ -16,6 +16,7 @@
 #include <lcm/lcm-cpp.hpp>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 
 #include "clutterseg/daemon/lcm_log_file.h"
 #include "clutterseg/objects_t.hpp"
@@ -183,6 +184,24 @@ TEST(LcmLogFile, ReadBackWhileWritingAndTheRestAtTheEnd) {
                            " (read back while writing)"),
               std::string::npos)
         << problem;
+  }
+}
+
+// A FIFO named as a log to read used to block liblcm's open until a writer came
+// (clutterseg-listen hung): refused at once, naming it, as for a log that is written.
+TEST(LcmBus, AFifoAsALogToReadIsRefusedWithoutBlocking) {
+  const auto dir = testing::ScratchDir("lcm_bus_fifo");
+  const std::string fifo = (dir / "log.fifo").string();
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& url : {"file://" + fifo + "?speed=0", "file://" + fifo}) {
+    try {
+      LcmBus dut(url);
+      ADD_FAILURE() << url << " was opened";
+    } catch (const LcmUnavailableError& e) {
+      EXPECT_NE(std::string(e.what()).find(fifo + " is not a regular file"), std::string::npos)
+          << e.what();
+    }
   }
 }
 
