@@ -51,6 +51,12 @@ void OverlayWriter::Finish(bool drop_waiting) {
     // the frame it has taken is dropped too unless its PNG is already being written.
     abandon_.store(true);
     queue_.CloseAndDropWaiting();
+    // The frame it is rendering or encoding finishes at normal priority where that is allowed
+    // (root, CAP_SYS_NICE, or RLIMIT_NICE: the systemd unit sets LimitNICE=+0); otherwise it
+    // finishes at the lowest.
+    if (const pid_t tid = tid_.load(); tid > 0) {
+      setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 0);
+    }
   } else {
     queue_.Close();
   }
@@ -67,7 +73,9 @@ void OverlayWriter::Loop() {
   // The lowest priority: PNGs take the CPU the segmentation leaves (a 30 Hz camera leaves a
   // third of a frame period); when there is none, the queue drops and counts overlays instead
   // of the lanes waiting for the encoder.
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+  const auto tid = static_cast<pid_t>(syscall(SYS_gettid));
+  setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 19);
+  tid_.store(tid);
   OverlayFrame frame;
   core::ColorImage image;
   io::PngWriter png;  // its buffers are reused from frame to frame

@@ -7,6 +7,8 @@
 #include <string>
 #include <thread>
 
+#include <sys/types.h>
+
 #include "clutterseg/core/types.h"
 #include "clutterseg/daemon/sink_queue.h"
 #include "clutterseg/pipeline/overlay.h"
@@ -77,6 +79,7 @@ class OverlayWriter {
   std::thread thread_;
   std::atomic<uint64_t> written_{0};
   std::atomic<uint64_t> failures_{0};
+  std::atomic<pid_t> tid_{0};           // the writer thread, once it runs
   std::atomic<bool> abandon_{false};    // Finish(true): drop instead of writing
   std::atomic<uint64_t> abandoned_{0};  // frames taken, then dropped by a stop
   mutable std::mutex error_mutex_;
