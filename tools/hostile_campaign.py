@@ -397,6 +397,8 @@ def daemon_cases(c: Campaign):
            "camera_name=dflt", "--print-config"], 0, ["camera_name: fromfile"])
     c.case("daemon.default.set-wins", D, ["--default", "camera_name=a", "--set",
            "camera_name=b", "--print-config"], 0, ["camera_name: b"])
+    c.case("daemon.default.twice-last-wins", D, ["--default", "camera_name=a", "--default",
+           "camera_name=b", "--print-config"], 0, ["camera_name: b"])
     c.case("daemon.default.no-equals", D, ["--default", "camera_name", "--print-config"], 2,
            ["camera_name"])
     c.case("daemon.default.unknown-key", D, ["--default", "camera.nonsense_key=1",
@@ -533,6 +535,8 @@ def daemon_cases(c: Campaign):
         if "incomplete" in res.err:
             return "an 'incomplete' line"
         return None
+    c.case("daemon.loop.recorded-from-pcd", D, replay(c.p("slow.oni"), "l5.lcmlog", "--loop",
+           "--max-frames", "10"), 0, log=c.p("l5.lcmlog"), check=seq_check(10))
     c.case("regress.looped-run-vs-itself", "regress", [c.p("l1.lcmlog"), c.p("l1.lcmlog")], 0)
     c.case("daemon.loop.realtime-room-3-passes", D, ["--source", room, "--speed", "realtime",
            "--loop", "--lcm-url", url("l2.lcmlog")], 0, log=c.p("l2.lcmlog"),
@@ -583,6 +587,21 @@ def daemon_cases(c: Campaign):
             os.kill(proc.pid, signal.SIGHUP)
             proc.hupped = True
         return elapsed >= 2.0
+    def term_twice(proc, elapsed):
+        if elapsed >= 1.0:
+            os.kill(proc.pid, signal.SIGTERM)  # the campaign sends the second one
+            return True
+        return False
+    c.case("daemon.sigterm.twice-load", D, ["--source", room, "--speed", "realtime", "--loop",
+           "--lcm-url", url("t8.lcmlog")], {0, 1}, stop=term_twice, load=True)
+
+    def hup_early(proc, elapsed):
+        if elapsed >= 0.15 and not getattr(proc, "hupped", False):
+            os.kill(proc.pid, signal.SIGHUP)
+            proc.hupped = True
+        return elapsed >= 1.5
+    c.case("daemon.sighup.during-start-up", D, ["--source", room, "--speed", "realtime",
+           "--loop", "--lcm-url", url("h2.lcmlog")], 0, log=c.p("h2.lcmlog"), stop=hup_early)
     c.case("daemon.sighup.bad-file-then-sigterm", D, ["--config", reload_cfg, "--source", room,
            "--speed", "realtime", "--loop", "--lcm-url", url("h1.lcmlog")], 0,
            ["reload.yaml", "max_planes"], log=c.p("h1.lcmlog"), stop=hup_then_term)
@@ -651,6 +670,10 @@ def tool_cases(c: Campaign):
            timeout=30)
     rnd = c.write("random.lcmlog", os.urandom(100000), "wb")
     c.case("listen.log.random", L, ["--lcm-url", f"file://{rnd}?speed=0"], {0, 1, 2, 4, 5},
+           timeout=30)
+    c.case("listen.log.fifo", L, ["--lcm-url", f"file://{_fifo(c.p('listen.fifo'))}?speed=0"],
+           4, ["listen.fifo"], timeout=30)
+    c.case("listen.log.directory", L, ["--lcm-url", f"file://{c.work}?speed=0"], 4, [c.work],
            timeout=30)
     c.case("listen.log.missing", L, ["--lcm-url", f"file://{c.p('no.lcmlog')}?speed=0"], 4,
            ["no.lcmlog"], timeout=30)
@@ -743,7 +766,14 @@ def python_cases(c: Campaign):
     py("config-missing", "clutterseg.Segmenter(config='/nonexistent/c.yaml')", 1,
        ["FileNotFoundError", "/nonexistent/c.yaml"])
     py("override-unknown", "clutterseg.Segmenter(no_such_key=1)", 1, ["KeyError", "no_such_key"])
+    py("threads-negative", "clutterseg.Segmenter(threads=-1)", 1, ["ValueError", "threads"])
+    py("intrinsics-extra-key", "s.segment(np.ones((48, 64, 3), np.float32), intrinsics=dict("
+       "fx=70, fy=70, cx=32, cy=24, bogus=1))", 1, ["KeyError", "bogus"])
+    py("intrinsics-fx-1e30", "s.segment_depth(np.full((48, 64), 1000, np.uint16), dict("
+       "fx=1e30, fy=70, cx=32, cy=24))", 1, ["ValueError", "fx"])
     # values
+    py("single-pixel-organized", "r = s.segment(np.ones((1, 1, 3), np.float32))\n"
+       "assert r.labels.shape == (1, 1) and len(r.objects) == 0")
     py("nan-only-organized", "r = s.segment(np.full((120, 160, 3), np.nan, np.float32))\n"
        "assert len(r.objects) == 0 and (r.labels == 0).all()")
     py("z-1e30-only", "p = np.zeros((120, 160, 3), np.float32); p[..., 2] = 1e30\n"
@@ -805,6 +835,10 @@ def main():
         n, ok = by_binary.get(r["binary"], (0, 0))
         by_binary[r["binary"]] = (n + 1, ok + (1 if r["ok"] else 0))
     print("\nper binary: " + ", ".join(f"{b} {ok}/{n}" for b, (n, ok) in by_binary.items()))
+    peak = {}
+    for r in c.results:
+        peak[r["binary"]] = max(peak.get(r["binary"], 0.0), r["rss"])
+    print("peak RSS per binary: " + ", ".join(f"{b} {m:.0f} MiB" for b, m in peak.items()))
     stops = [r for r in c.results if r["stop_s"] is not None]
     if stops:
         worst = max(stops, key=lambda r: r["stop_s"])
