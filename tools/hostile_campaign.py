@@ -232,6 +232,10 @@ class Campaign:
         for i in range(3):
             with open(self.p("garbage_pcds", f"f{i}.pcd"), "wb") as f:
                 f.write(os.urandom(2000))
+        os.makedirs(self.p("dpng"), exist_ok=True)
+        for f in os.listdir(self.p("scenes")):
+            if f.endswith("_depth.png") or f == "intrinsics.json":
+                shutil.copy(self.p("scenes", f), self.p("dpng", f))
         os.makedirs(self.p("pcds"), exist_ok=True)
         for f in scenes:
             shutil.copy(self.p("scenes", f), self.p("pcds", f))
@@ -537,6 +541,10 @@ def daemon_cases(c: Campaign):
         return None
     c.case("daemon.loop.recorded-from-pcd", D, replay(c.p("slow.oni"), "l5.lcmlog", "--loop",
            "--max-frames", "10"), 0, log=c.p("l5.lcmlog"), check=seq_check(10))
+    c.case("daemon.loop.pcd-directory", D, replay(c.p("pcds"), "l6.lcmlog", "--loop",
+           "--max-frames", "7"), 0, log=c.p("l6.lcmlog"), check=seq_check(7))
+    c.case("daemon.loop.depth-png-directory", D, replay(c.p("dpng"), "l7.lcmlog", "--loop",
+           "--max-frames", "7"), 0, log=c.p("l7.lcmlog"), check=seq_check(7))
     c.case("regress.looped-run-vs-itself", "regress", [c.p("l1.lcmlog"), c.p("l1.lcmlog")], 0)
     c.case("daemon.loop.realtime-room-3-passes", D, ["--source", room, "--speed", "realtime",
            "--loop", "--lcm-url", url("l2.lcmlog")], 0, log=c.p("l2.lcmlog"),
