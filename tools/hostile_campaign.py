@@ -411,6 +411,8 @@ def daemon_cases(c: Campaign):
            "--print-config"], 2, ["processing.queue_capacity"])
     c.case("daemon.default.nan", D, ["--default", "segmenter.points.max_depth_m=nan",
            "--print-config"], 2, ["segmenter.points.max_depth_m"])
+    c.case("daemon.default.control-character-name", D, ["--default", "camera_name=arm\x01left",
+           "--print-config"], 2, ["camera_name", "control character"])
     c.case("daemon.default.empty-name", D, ["--default", "camera_name=", "--print-config"], 2,
            ["camera_name"])
     # configuration files
@@ -475,6 +477,9 @@ def daemon_cases(c: Campaign):
                         "  robot_base_frame: base_link\n"
                         "transformation: {x: .inf, y: 0, z: 0.5, qx: 0, qy: 0, qz: 0, qw: 1}\n",
                         ["e9.yaml", "transformation"]),
+        "nul-in-frame-name": ('e12.json', '{"parent_frame": "base\\u0000link", '
+                              '"translation": [0, 0, 1], "rotation_xyzw": ' + good_q + '}',
+                              ["e12.json", "parent_frame", "control character"]),
         "yaml-named-json": ('e10.json', "header: {frame_id: base_link}\n", ["e10.json"]),
         "empty": ('e11.json', "", ["e11.json"]),
     }
