@@ -292,7 +292,12 @@ struct Daemon::Impl {
     NoteDepthInRange(lane.result->num_valid_points, out.sequence);
     if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
     publisher.Offer(&out.messages, sink_wait);
-    if (overlay) overlay->Offer(&out.overlay, sink_wait);
+    // After a stop signal the overlays of the frames still in flight do not wait for room
+    // behind the lowest-priority writer (in lockstep that wait is up to kLockstepSinkWait):
+    // the oldest waiting one is dropped and counted instead.
+    if (overlay) {
+      overlay->Offer(&out.overlay, interrupted.load() ? std::chrono::milliseconds(0) : sink_wait);
+    }
     const uint64_t n = handed.fetch_add(1) + 1;
     if (max_frames > 0 && n >= static_cast<uint64_t>(max_frames)) {
       Log(LogLevel::kInfo, "published " + std::to_string(n) + " frames (max_frames); stopping");
