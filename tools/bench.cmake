@@ -71,3 +71,11 @@ if(CLUTTERSEG_BUILD_TESTS)
     PASS_REGULAR_EXPRESSION "\"frames\":2,\"repeat\":1.*\"objects_mean\":[1-9]"
     FAIL_REGULAR_EXPRESSION "clutterseg-bench: error")
 endif()
+
+if(CLUTTERSEG_BUILD_TESTS)
+  # An unknown --set key is a bad command line: exit 2 naming the key (it was 1).
+  add_test(NAME clutterseg_bench_unknown_key
+           COMMAND sh -c "out=$(\"$0\" --synthetic 1 --set no.such=1 2>&1); rc=$?; echo \"$out\"; test $rc -eq 2 && echo \"$out\" | grep -q \"unknown key 'segmenter.no.such'\""
+                   $<TARGET_FILE:clutterseg-bench>)
+  set_tests_properties(clutterseg_bench_unknown_key PROPERTIES TIMEOUT 120 LABELS "bench")
+endif()

@@ -41,8 +41,14 @@ namespace clutterseg::eval {
 namespace {
 
 constexpr int kExitOk = 0;
-constexpr int kExitUsage = 2;       // I/O and data errors (1) are reported by main()
-constexpr int kExitIncomplete = 5;  // some pairs could not be scored (core/exit_codes.h)
+constexpr int kExitUsage = 2;             // I/O and data errors (1) are reported by main()
+constexpr int kExitIncomplete = 5;        // some pairs could not be scored (core/exit_codes.h)
+constexpr int kExitInputUnavailable = 3;  // GT or PRED does not exist (core/exit_codes.h)
+
+// GT or PRED cannot be opened: exit 3, as for every tool whose input is missing.
+struct InputUnavailable : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 // A command-line problem found after parsing (exit code 2).
 class UsageError : public std::runtime_error {
@@ -104,9 +110,9 @@ std::vector<FramePair> ListPairs(const Options& opt) {
   const fs::path gt(opt.gt_path);
   const fs::path pred(opt.pred_path);
   std::error_code ec;
-  if (!fs::exists(gt, ec)) throw std::runtime_error("ground truth '" + gt.string() + "' not found");
+  if (!fs::exists(gt, ec)) throw InputUnavailable("ground truth '" + gt.string() + "' not found");
   if (!fs::exists(pred, ec)) {
-    throw std::runtime_error("prediction '" + pred.string() + "' not found");
+    throw InputUnavailable("prediction '" + pred.string() + "' not found");
   }
   const bool gt_dir = fs::is_directory(gt);
   const bool pred_dir = fs::is_directory(pred);
@@ -351,6 +357,9 @@ int Run(int argc, char** argv) {
 int main(int argc, char** argv) {
   try {
     return clutterseg::eval::Run(argc, argv);
+  } catch (const clutterseg::eval::InputUnavailable& e) {
+    std::fprintf(stderr, "clutterseg-eval: error: %s\n", e.what());
+    return clutterseg::eval::kExitInputUnavailable;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "clutterseg-eval: error: %s\n", e.what());
     return 1;  // I/O or data error

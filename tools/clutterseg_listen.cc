@@ -187,7 +187,8 @@ int main(int argc, char** argv) {
                  "LCM URL (default udpm with a 4 MB receive buffer for label images; "
                  "file:///abs/run.lcmlog?speed=0 replays a log)");
   app.add_option("--png", listener.png_dir, "write each label image as DIR/labels_NNNNNN.png");
-  app.add_option("--count", listener.count, "exit after N objects messages (0 = run until ^C)");
+  app.add_option("--count", listener.count, "exit after N objects messages (0 = run until ^C)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--objects-channel", objects_channel, "objects_t channel");
   app.add_option("--labels-channel", labels_channel, "label_image_t channel");
   app.add_option("--status-channel", status_channel, "status_t channel");

@@ -26,6 +26,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "clutterseg/core/exit_codes.h"
 #include "clutterseg/drivers/oni/oni_writer.h"
 #include "clutterseg/drivers/openni2/openni2_source.h"
 #include "clutterseg/drivers/replay/pcd_directory_source.h"
@@ -33,6 +34,11 @@
 
 namespace clutterseg::tools {
 namespace {
+
+// No camera, or the one asked for cannot be opened: exit 3 (core/exit_codes.h).
+struct DeviceUnavailable : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 std::atomic<bool> g_stop{false};
 extern "C" void OnSignal(int /*sig*/) { g_stop.store(true); }
@@ -80,21 +86,21 @@ void OpenDevice(const Args& a, openni::Device* device) {
       d.close();
       if (ok && a.serial == serial) {
         if (device->open(uri.c_str()) != openni::STATUS_OK) {
-          throw std::runtime_error("cannot open device " + uri + ": " + Ext());
+          throw DeviceUnavailable("cannot open device " + uri + ": " + Ext());
         }
         return;
       }
     }
-    throw std::runtime_error("no OpenNI2 device with serial '" + a.serial + "' (" +
-                             std::to_string(uris.size()) + " device(s) connected)");
+    throw DeviceUnavailable("no OpenNI2 device with serial '" + a.serial + "' (" +
+                            std::to_string(uris.size()) + " device(s) connected)");
   }
   std::string uri = a.device;
   if (uri.empty()) {
-    if (uris.empty()) throw std::runtime_error("no OpenNI2 device is connected");
+    if (uris.empty()) throw DeviceUnavailable("no OpenNI2 device is connected");
     uri = uris.front();
   }
   if (device->open(uri.c_str()) != openni::STATUS_OK) {
-    throw std::runtime_error("cannot open device '" + uri + "': " + Ext());
+    throw DeviceUnavailable("cannot open device '" + uri + "': " + Ext());
   }
 }
 
@@ -331,6 +337,9 @@ int main(int argc, char** argv) {
     } else {
       rc = clutterseg::tools::RecordLive(a);
     }
+  } catch (const clutterseg::tools::DeviceUnavailable& e) {
+    std::fprintf(stderr, "clutterseg-record: error: %s\n", e.what());
+    rc = clutterseg::kExitSourceUnavailable;  // as the daemon: the source cannot be opened
   } catch (const std::exception& e) {
     std::fprintf(stderr, "clutterseg-record: error: %s\n", e.what());
     rc = 1;

@@ -24,6 +24,7 @@
 #include <iostream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -56,6 +57,9 @@ struct Options {
   std::string json_out;
   std::string png_out;
   std::string intrinsics_file;
+  // --intrinsics, read once before any frame (a bad file is a usage error, exit 2); unset:
+  // DefaultKinectIntrinsics().
+  std::optional<core::CameraIntrinsics> intrinsics;
   std::string color_png;
   std::string times_out;
   double depth_scale_to_mm{1.0};
@@ -173,8 +177,7 @@ bool IsPng(const fs::path& p) { return core::HasExtension(p.filename().string(),
 void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
                core::CameraIntrinsics* intrinsics) {
   if (IsPng(in)) {
-    *intrinsics = opt.intrinsics_file.empty() ? core::DefaultKinectIntrinsics()
-                                              : io::ReadIntrinsicsJson(opt.intrinsics_file);
+    *intrinsics = opt.intrinsics.value_or(core::DefaultKinectIntrinsics());
     *cloud = io::ReadDepthPngCloud(in.string(), *intrinsics, opt.color_png, opt.depth_scale_to_mm,
                                    core::FrameLimits{});
     return;
@@ -182,10 +185,8 @@ void LoadInput(const fs::path& in, const Options& opt, core::PointCloud* cloud,
   // Organized or not (HEIGHT 1): the labels follow the input's points either way. The
   // intrinsics are used for an organized cloud, and to draw an unorganized one (--png).
   io::ReadPcd(in.string(), io::ReadLimits{}, cloud);
-  *intrinsics = core::IntrinsicsForCloud(opt.intrinsics_file.empty()
-                                             ? core::DefaultKinectIntrinsics()
-                                             : io::ReadIntrinsicsJson(opt.intrinsics_file),
-                                         *cloud);
+  *intrinsics =
+      core::IntrinsicsForCloud(opt.intrinsics.value_or(core::DefaultKinectIntrinsics()), *cloud);
 }
 
 // One file the run reads or writes, for the checks before it starts.
@@ -285,6 +286,16 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::cerr << "clutterseg-segment: " << e.what() << "\n";
     return kExitUsage;
+  }
+  // The --intrinsics file is configuration, as camera.intrinsics_file is for the daemon: a
+  // missing or bad one is a usage error (exit 2) named once, not a failure of every frame.
+  if (!opt.intrinsics_file.empty()) {
+    try {
+      opt.intrinsics = io::ReadIntrinsicsJson(opt.intrinsics_file);
+    } catch (const std::exception& e) {
+      std::cerr << "clutterseg-segment: --intrinsics: " << e.what() << "\n";
+      return kExitUsage;
+    }
   }
 
   // Collect (input, output) pairs.

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "clutterseg/core/text_and_color.h"
+
 namespace clutterseg::core {
 namespace {
 
@@ -46,6 +48,10 @@ std::string Extrinsics::Problem(const std::string& translation_field,
            ")";
   }
   if (parent_frame.empty()) return parent_field + " is missing or empty";
+  if (const int at = FirstControlCharacter(parent_frame); at >= 0) {
+    return parent_field + " holds a control character at byte " + std::to_string(at) +
+           ": not a frame name (it is published as objects_t.frame_id)";
+  }
   return "";
 }
 

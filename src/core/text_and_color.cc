@@ -47,6 +47,14 @@ bool NaturalLess(std::string_view a, std::string_view b) {
   return a.size() - i < b.size() - j;
 }
 
+int FirstControlCharacter(std::string_view text) {
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 || c == 0x7f) return static_cast<int>(i);
+  }
+  return -1;
+}
+
 Rgb8 HsvToRgb(double hue, double saturation, double value) {
   const double hh = 6.0 * (hue - std::floor(hue));
   const int sector = static_cast<int>(hh) % 6;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/core/text_and_color.h"
 #include "clutterseg/daemon/log.h"
 
 namespace clutterseg::daemon {
@@ -59,6 +60,10 @@ void CaptureParams::ValidateOrThrow() const {
       "reconnect.backoff_max_s", reconnect_backoff_max_s,
       ">= reconnect.backoff_min_s and <= 3600 s");
   check.NonEmpty("camera_name", camera_name, "a name");
+  if (const int at = core::FirstControlCharacter(camera_name); at >= 0) {
+    check.Fail("camera_name", "a text with a control character at byte " + std::to_string(at),
+               "a name without control characters (it is published in every message)");
+  }
   check.AtLeast("processing.max_frames", max_frames, int64_t{0}, "(0 = no limit)");
 }
 

@@ -100,6 +100,7 @@ struct Daemon::Impl {
   bool joined{false};
 
   std::atomic<bool> stop{false};
+  std::atomic<bool> interrupted{false};  // stopped from outside (a signal), not by the run
   std::atomic<uint64_t> processed{0};
   std::atomic<uint64_t> handed{0};  // frames handed to the sinks
   std::atomic<uint64_t> discarded{0};
@@ -293,7 +294,12 @@ struct Daemon::Impl {
     NoteDepthInRange(lane.result->num_valid_points, out.sequence);
     if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
     publisher.Offer(&out.messages, sink_wait);
-    if (overlay) overlay->Offer(&out.overlay, sink_wait);
+    // After a stop signal the overlays of the frames still in flight do not wait for room
+    // behind the lowest-priority writer (in lockstep that wait is up to kLockstepSinkWait):
+    // the oldest waiting one is dropped and counted instead.
+    if (overlay) {
+      overlay->Offer(&out.overlay, interrupted.load() ? std::chrono::milliseconds(0) : sink_wait);
+    }
     const uint64_t n = handed.fetch_add(1) + 1;
     if (max_frames > 0 && n >= static_cast<uint64_t>(max_frames)) {
       Log(LogLevel::kInfo, "published " + std::to_string(n) + " frames (max_frames); stopping");
@@ -364,7 +370,9 @@ struct Daemon::Impl {
     ReleaseFinished(&finished_frames);
     if (runner.done_error().size() > 0) Fail("completing a frame failed: " + runner.done_error());
     // Everything segmented is handed on: let the sinks finish, then report the end.
-    if (overlay) overlay->Finish();
+    // A stop signal does not wait for the overlays still queued (the lowest-priority writer
+    // may take seconds for them on a loaded machine): dropped and counted.
+    if (overlay) overlay->Finish(interrupted.load());
     publisher.Flush();
     status->Finish();
     publisher.Finish();
@@ -448,7 +456,10 @@ void Daemon::Start() {
   d.capture.Start();
 }
 
-void Daemon::RequestStop() { impl_->RequestStop(); }
+void Daemon::RequestStop() {
+  impl_->interrupted.store(true);
+  impl_->RequestStop();
+}
 
 void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
   impl_->runner.UpdateParams(params);  // validates first

@@ -67,10 +67,12 @@ class Daemon {
   void Open();
   /// Opens the source unless Open() did, then starts the threads. A RequestStop() that came
   /// after Open() makes the threads finish at once (with a last status_t).
-  /// @throws SourceOpenError when the source cannot be opened.
+  /// @throws SourceOpenError when the source cannot be opened; std::invalid_argument naming
+  /// output.png_dir when the overlay directory cannot be created (nothing is started then).
   void Start();
   /// Asks for an orderly stop: capture stops, frames being segmented finish and are
-  /// published, waiting frames are discarded, a last status_t is sent. Returns at once.
+  /// published, waiting frames are discarded, overlays waiting for the disk are dropped (both
+  /// counted), a last status_t is sent. Returns at once.
   void RequestStop();
   /// Replaces the segmentation parameters; each lane applies them before its next frame.
   /// @throws std::invalid_argument when `params` are invalid (the old ones stay).

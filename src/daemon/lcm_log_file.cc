@@ -53,25 +53,30 @@ int64_t FindWholeEventAfter(int fd, uint64_t from, uint64_t size) {
 
 }  // namespace
 
-LcmLogScan ScanLcmLog(const std::string& path) {
+namespace {
+
+// Scans the events of `fd` from byte `pos` (the start of an event) up to `file_bytes`: one
+// pread of each event's header, the channel and data skipped (not read). `events` counts the
+// events from `pos`; `parsed_bytes` is the end of the last whole one (absolute).
+LcmLogScan ScanFrom(int fd, uint64_t pos, uint64_t file_bytes) {
   LcmLogScan scan;
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (f == nullptr) {
-    scan.problem = "cannot open " + path + ": " + std::strerror(errno);
-    return scan;
-  }
-  struct stat st {};
-  if (fstat(fileno(f), &st) == 0) scan.file_bytes = static_cast<uint64_t>(st.st_size);
-  uint64_t pos = 0;
+  scan.file_bytes = file_bytes;
+  scan.parsed_bytes = pos;
   unsigned char header[kHeader];
   for (;;) {
-    const size_t got = std::fread(header, 1, kHeader, f);
-    if (got == 0) {
-      scan.complete = pos == scan.file_bytes;
-      if (!scan.complete) scan.problem = "unreadable at byte " + std::to_string(pos);
+    if (pos == file_bytes) {
+      scan.complete = true;
       break;
     }
-    if (got < kHeader) {
+    ssize_t got = 0;
+    do {
+      got = pread(fd, header, kHeader, static_cast<off_t>(pos));
+    } while (got < 0 && errno == EINTR);
+    if (got < 0) {
+      scan.problem = "unreadable at byte " + std::to_string(pos) + ": " + std::strerror(errno);
+      break;
+    }
+    if (got < static_cast<ssize_t>(kHeader) || pos + kHeader > file_bytes) {
       scan.problem = "truncated event header at byte " + std::to_string(pos);
       break;
     }
@@ -80,21 +85,37 @@ LcmLogScan ScanLcmLog(const std::string& path) {
       break;
     }
     const uint64_t end = pos + kHeader + Be32(header + 20) + Be32(header + 24);
-    if (end > scan.file_bytes) {
+    if (end > file_bytes) {
       scan.problem = "truncated event at byte " + std::to_string(pos) + " (needs " +
-                     std::to_string(end - pos) + " bytes, " +
-                     std::to_string(scan.file_bytes - pos) + " left)";
-      break;
-    }
-    if (std::fseek(f, static_cast<long>(end), SEEK_SET) != 0) {
-      scan.problem = "cannot seek to byte " + std::to_string(end);
+                     std::to_string(end - pos) + " bytes, " + std::to_string(file_bytes - pos) +
+                     " left)";
       break;
     }
     pos = end;
     scan.parsed_bytes = pos;
     ++scan.events;
   }
-  std::fclose(f);
+  return scan;
+}
+
+}  // namespace
+
+LcmLogScan ScanLcmLog(const std::string& path) {
+  // O_NONBLOCK: a FIFO must not block the open (it is refused just below).
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd < 0) {
+    LcmLogScan scan;
+    scan.problem = "cannot open " + path + ": " + std::strerror(errno);
+    return scan;
+  }
+  struct stat st {};
+  LcmLogScan scan;
+  if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    scan.problem = "not a regular file (a FIFO, device or directory)";
+  } else {
+    scan = ScanFrom(fd, 0, static_cast<uint64_t>(st.st_size));
+  }
+  close(fd);
   return scan;
 }
 
@@ -142,6 +163,7 @@ LcmLogFile::LcmLogFile(const FileLogUrl& log) : log_(log) {
   }
   if (!log.append) {
     if (ftruncate(fd_, 0) != 0) refuse(std::string(": cannot empty it: ") + std::strerror(errno));
+    next_check_ = std::chrono::steady_clock::now() + kCheckPeriod;
     return;
   }
   const LcmLogScan scan = ScanLcmLog(log.path);
@@ -165,6 +187,9 @@ LcmLogFile::LcmLogFile(const FileLogUrl& log) : log_(log) {
     }
     repaired_bytes_ = scan.file_bytes - scan.parsed_bytes;
   }
+  checked_end_ = end_;
+  checked_events_ = scan.events;
+  next_check_ = std::chrono::steady_clock::now() + kCheckPeriod;
 }
 
 LcmLogFile::~LcmLogFile() {
@@ -216,6 +241,7 @@ bool LcmLogFile::Write(const std::string& channel, const void* data, size_t size
     end_ += total;
     ++next_event_number_;
     written_.fetch_add(1, std::memory_order_relaxed);
+    if (std::chrono::steady_clock::now() >= next_check_) CheckWritten();
     return true;
   }
   // Whole events only: the part that fitted goes again (a full file system has room for
@@ -229,6 +255,18 @@ bool LcmLogFile::Write(const std::string& channel, const void* data, size_t size
   return false;
 }
 
+void LcmLogFile::CheckWritten() {
+  next_check_ = std::chrono::steady_clock::now() + kCheckPeriod;
+  if (!check_problem_.empty() || checked_end_ == end_) return;
+  const LcmLogScan scan = ScanFrom(fd_, checked_end_, end_);
+  if (!scan.complete) {
+    check_problem_ = scan.problem + " (read back while writing)";
+    return;
+  }
+  checked_end_ = end_;
+  checked_events_ += scan.events;
+}
+
 std::string LcmLogFile::Verify() const {
   if (discard_) return {};
   const uint64_t written = written_.load();
@@ -239,8 +277,29 @@ std::string LcmLogFile::Verify() const {
               std::to_string(written + failed) + " messages could not be written (" + last_error_ +
               "); it holds the " + std::to_string(written) + " written";
   }
-  const LcmLogScan scan = ScanLcmLog(log_.path);
-  const uint64_t ours = scan.events > events_before_ ? scan.events - events_before_ : 0;
+  // The events up to checked_end_ were read back while the run wrote (CheckWritten); only the
+  // rest is read here, so that the time this takes at the end does not grow with the run.
+  LcmLogScan scan;
+  const int fd = open(log_.path.c_str(), O_RDONLY | O_CLOEXEC);
+  struct stat st {};
+  if (fd < 0) {
+    scan.problem = "cannot open " + log_.path + ": " + std::strerror(errno);
+  } else if (fstat(fd, &st) != 0) {
+    scan.problem = std::string("cannot stat it: ") + std::strerror(errno);
+  } else if (static_cast<uint64_t>(st.st_size) < checked_end_) {
+    scan.problem = "it is " + std::to_string(st.st_size) + " bytes, shorter than the " +
+                   std::to_string(checked_end_) + " already read back";
+  } else {
+    scan = ScanFrom(fd, checked_end_, static_cast<uint64_t>(st.st_size));
+  }
+  if (fd >= 0) close(fd);
+  if (!check_problem_.empty()) {
+    scan.complete = false;
+    scan.problem = check_problem_;
+    scan.events = 0;
+  }
+  const uint64_t events = checked_events_ + scan.events;
+  const uint64_t ours = events > events_before_ ? events - events_before_ : 0;
   std::string broken;
   if (!scan.complete) {
     broken = "LCM log " + log_.path + " is cut short: " + std::to_string(ours) +

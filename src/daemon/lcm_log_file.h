@@ -1,6 +1,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -77,10 +78,17 @@ class LcmLogFile {
 
   /// Reads the file back: "" when it is whole and holds exactly the events this run wrote
   /// after those it found, otherwise what is wrong; also names the events that could not be
-  /// written (e.g. the disk filled up) and why.
+  /// written (e.g. the disk filled up) and why. Write() reads the new events back about once
+  /// a second as it goes, so that Verify() reads only those of the last second: its time
+  /// after a stop does not grow with the log (read whole, a 430 MB log of 70,000 events cost
+  /// one stdio read per event between the stop and the exit).
   std::string Verify() const;
 
  private:
+  static constexpr std::chrono::seconds kCheckPeriod{1};
+  // Reads back the events written since the last check (the writing thread).
+  void CheckWritten();
+
   FileLogUrl log_;
   int fd_{-1};
   uint64_t repaired_bytes_{0};
@@ -91,6 +99,12 @@ class LcmLogFile {
   std::atomic<uint64_t> written_{0};
   std::atomic<uint64_t> failures_{0};
   std::string last_error_;
+  // Read back while writing: the file's first checked_end_ bytes hold checked_events_ whole
+  // events (those found at open included); what a check found wrong ("" when nothing).
+  uint64_t checked_end_{0};
+  uint64_t checked_events_{0};
+  std::chrono::steady_clock::time_point next_check_{};
+  std::string check_problem_;
 };
 
 }  // namespace clutterseg::daemon

@@ -299,7 +299,15 @@ int Run(int argc, char** argv) {
     // watcher ends the process at once.
     Daemon* running = daemon.get();
     signals->Attach([running] { running->RequestStop(); }, [&cl, running] { Reload(cl, running); });
-    daemon->Start();
+    try {
+      daemon->Start();
+    } catch (const std::invalid_argument& e) {  // e.g. output.png_dir cannot be created
+      signals->Detach();
+      Log(LogLevel::kError, std::string("configuration: ") + e.what());
+      daemon.reset();
+      ShutdownSourceDrivers();
+      return kExitUsage;
+    }
     Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
                              cfg.lcm.objects_channel + ")");
     notifier.Ready("publishing " + daemon->source_description() + " on " + bus->url());

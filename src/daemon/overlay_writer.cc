@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <system_error>
 
 #include <sys/resource.h>
@@ -32,9 +33,9 @@ void OverlayWriter::Start() {
   std::error_code ec;
   std::filesystem::create_directories(params_.png_dir, ec);
   if (ec || !std::filesystem::is_directory(params_.png_dir)) {
-    throw std::runtime_error("output.png_dir '" + params_.png_dir +
-                             "': cannot create the directory" +
-                             (ec ? ": " + ec.message() : std::string()));
+    throw std::invalid_argument("output.png_dir '" + params_.png_dir +
+                                "': cannot create the directory" +
+                                (ec ? ": " + ec.message() : std::string()));
   }
   thread_ = std::thread([this] { Loop(); });
 }
@@ -43,8 +44,22 @@ void OverlayWriter::Offer(OverlayFrame* frame, std::chrono::milliseconds wait_fo
   queue_.Push(frame, wait_for_room);
 }
 
-void OverlayWriter::Finish() {
-  queue_.Close();
+void OverlayWriter::Finish(bool drop_waiting) {
+  if (drop_waiting) {
+    // The writer runs at the lowest priority: on a loaded machine each PNG can take it a
+    // second or more, so a stop does not wait for what is queued (counted as dropped), and
+    // the frame it has taken is dropped too unless its PNG is already being written.
+    abandon_.store(true);
+    queue_.CloseAndDropWaiting();
+    // The frame it is rendering or encoding finishes at normal priority where that is allowed
+    // (root, CAP_SYS_NICE, or RLIMIT_NICE: the systemd unit sets LimitNICE=+0); otherwise it
+    // finishes at the lowest.
+    if (const pid_t tid = tid_.load(); tid > 0) {
+      setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 0);
+    }
+  } else {
+    queue_.Close();
+  }
   if (thread_.joinable()) thread_.join();
 }
 
@@ -58,13 +73,19 @@ void OverlayWriter::Loop() {
   // The lowest priority: PNGs take the CPU the segmentation leaves (a 30 Hz camera leaves a
   // third of a frame period); when there is none, the queue drops and counts overlays instead
   // of the lanes waiting for the encoder.
-  setpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)), 19);
+  const auto tid = static_cast<pid_t>(syscall(SYS_gettid));
+  setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 19);
+  tid_.store(tid);
   OverlayFrame frame;
   core::ColorImage image;
   io::PngWriter png;  // its buffers are reused from frame to frame
   for (;;) {
     if (!queue_.Pop(&frame, std::chrono::milliseconds(100))) {
       if (queue_.drained()) return;
+      continue;
+    }
+    if (abandon_.load()) {
+      abandoned_.fetch_add(1);
       continue;
     }
     char name[64];
@@ -74,6 +95,10 @@ void OverlayWriter::Loop() {
     try {
       pipeline::RenderOverlay(frame.labels, frame.base.empty() ? nullptr : &frame.base,
                               frame.objects, &image);
+      if (abandon_.load()) {
+        abandoned_.fetch_add(1);
+        continue;
+      }
       png.WriteColor(path, image);
       written_.fetch_add(1);
     } catch (const std::exception& e) {

@@ -7,6 +7,8 @@
 #include <string>
 #include <thread>
 
+#include <sys/types.h>
+
 #include "clutterseg/core/types.h"
 #include "clutterseg/daemon/sink_queue.h"
 #include "clutterseg/pipeline/overlay.h"
@@ -50,20 +52,23 @@ class OverlayWriter {
   explicit OverlayWriter(const OverlayWriterParams& params);
   ~OverlayWriter();
 
-  /// Creates the directory and starts the thread. @throws std::runtime_error naming the
-  /// directory when it cannot be created.
+  /// Creates the directory and starts the thread. @throws std::invalid_argument naming
+  /// output.png_dir when the directory cannot be created (a configuration error).
   void Start();
   /// Queues a frame (swapped in; `*frame` gets reusable buffers back). When the queue is
   /// full it waits up to `wait_for_room` (none by default: it never blocks) before the
   /// oldest waiting frame is dropped; see SinkQueue::Push.
   void Offer(OverlayFrame* frame,
              std::chrono::milliseconds wait_for_room = std::chrono::milliseconds(0));
-  /// Writes what waits, then stops the thread.
-  void Finish();
+  /// Writes what waits, then stops the thread. With `drop_waiting` (a stop signal) the
+  /// waiting frames, and the one taken unless its PNG is being written, are dropped and
+  /// counted instead: the writer's lowest priority must not hold the exit back.
+  void Finish(bool drop_waiting = false);
 
   uint64_t written() const { return written_.load(); }
   uint64_t failures() const { return failures_.load(); }
-  uint64_t dropped() const { return queue_.dropped(); }
+  /// Frames dropped: in front of a disk that fell behind, or by a stop (Finish(true)).
+  uint64_t dropped() const { return queue_.dropped() + abandoned_.load(); }
   std::string last_error() const;
 
  private:
@@ -74,6 +79,9 @@ class OverlayWriter {
   std::thread thread_;
   std::atomic<uint64_t> written_{0};
   std::atomic<uint64_t> failures_{0};
+  std::atomic<pid_t> tid_{0};           // the writer thread, once it runs
+  std::atomic<bool> abandon_{false};    // Finish(true): drop instead of writing
+  std::atomic<uint64_t> abandoned_{0};  // frames taken, then dropped by a stop
   mutable std::mutex error_mutex_;
   std::string last_error_;
 };

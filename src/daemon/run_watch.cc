@@ -144,6 +144,11 @@ std::string Summary(const DaemonStats& s, const RunLatency& lat) {
          std::to_string(s.frames_processed) + " processed, " + std::to_string(s.frames_published) +
          " published, " + std::to_string(s.frames_dropped) + " dropped, " +
          std::to_string(s.publish_failures) + " publish failures" +
+         // Frames still waiting when a stop came: captured, never segmented (the count that
+         // makes captured = processed + dropped + discarded).
+         (s.frames_discarded > 0
+              ? ", " + std::to_string(s.frames_discarded) + " discarded at the stop"
+              : "") +
          (s.frames_publish_dropped > 0
               ? ", " + std::to_string(s.frames_publish_dropped) + " dropped before the transport"
               : "") +

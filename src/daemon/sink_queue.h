@@ -79,6 +79,23 @@ class SinkQueue {
     not_full_.notify_all();
   }
 
+  /// Close(), and the items still waiting are dropped (counted in dropped()) rather than
+  /// handed to Pop: a stop that must not wait for a slow consumer. Returns how many.
+  size_t CloseAndDropWaiting() {
+    size_t n = 0;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      closed_ = true;
+      n = count_;
+      dropped_ += count_;
+      head_ = (head_ + count_) % slots_.size();
+      count_ = 0;
+    }
+    cv_.notify_all();
+    not_full_.notify_all();
+    return n;
+  }
+
   bool closed() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return closed_;

@@ -617,12 +617,13 @@ void CheckFileSize(const std::string& name, uint64_t size, const ReadLimits& lim
 // truncated by another process while it is read must give an error, not SIGBUS.
 std::string_view ReadWholeFile(const std::string& path, const ReadLimits& limits,
                                std::vector<char>* cached, std::vector<char>* large) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: a FIFO must not block the open (it is refused just below).
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) Fail(path, std::string("cannot open: ") + std::strerror(errno));
   const FdCloser closer{fd};
   struct stat st {};
   if (::fstat(fd, &st) != 0) Fail(path, std::string("cannot stat: ") + std::strerror(errno));
-  if (!S_ISREG(st.st_mode)) Fail(path, "not a regular file");
+  if (!S_ISREG(st.st_mode)) Fail(path, "not a regular file (a FIFO, device or directory)");
   const size_t size = static_cast<size_t>(st.st_size);
   if (size == 0) Fail(path, "empty file");
   CheckFileSize(path, size, limits);

@@ -201,6 +201,10 @@ void FilterSub(const uint8_t* row, size_t row_bytes, size_t bpp, uint8_t* out) {
 }
 
 FilePtr OpenForRead(const std::string& path, size_t* size) {
+  // A FIFO would block fopen() until a writer comes: refused before it is opened.
+  if (struct stat st{}; stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    Fail(path, "not a regular file (a FIFO, device or directory)");
+  }
   FilePtr f(std::fopen(path.c_str(), "rb"));
   if (f == nullptr) Fail(path, std::string("cannot open: ") + std::strerror(errno));
   if (std::fseek(f.get(), 0, SEEK_END) != 0) Fail(path, "cannot seek (not a regular file?)");

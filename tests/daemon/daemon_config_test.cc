@@ -216,6 +216,12 @@ TEST(DaemonConfig, OutOfRangeValuesAreNamed) {
   EXPECT_NE(e.find("min_object_points"), std::string::npos) << e;
   EXPECT_NE(e.find('0'), std::string::npos) << e;
 
+  // A camera name LCM cannot carry whole (a control character): every message was refused at
+  // publish, exit 5 after the run, until the hostile campaign.
+  e = ParseError("camera_name: \"arm\\x01left\"\n");
+  EXPECT_NE(e.find("camera_name"), std::string::npos) << e;
+  EXPECT_NE(e.find("control character at byte 3"), std::string::npos) << e;
+
   e = ParseError("status:\n  period_s: nan\n");
   EXPECT_NE(e.find("status.period_s"), std::string::npos) << e;
 

@@ -200,5 +200,16 @@ TEST(ListenBounds, HostileMessagesAreRejectedWithBoundedMemory) {
   EXPECT_NE(r.out.find("captured 2"), std::string::npos) << "good status_t printed: " << r.out;
 }
 
+// A negative --count is a bad command line (exit 2, naming the option), as for the daemon; it
+// used to be taken as "run until ^C" and ended with 0 at the end of a log.
+TEST(ListenBounds, NegativeCountIsAUsageError) {
+  const testing::ProcessResult r = testing::RunProcess(
+      {CLUTTERSEG_LISTEN_EXE, "--lcm-url", "file:///nonexistent.lcmlog?speed=0", "--count", "-1"},
+      std::chrono::seconds(60));
+  EXPECT_FALSE(r.timed_out);
+  EXPECT_EQ(r.exit_code, 2) << r.err;
+  EXPECT_NE(r.err.find("--count"), std::string::npos) << r.err;
+}
+
 }  // namespace
 }  // namespace clutterseg::daemon

@@ -1,5 +1,6 @@
 #include "clutterseg/daemon/lcm_bus.h"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -15,7 +16,9 @@
 #include <lcm/lcm-cpp.hpp>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 
+#include "clutterseg/daemon/lcm_log_file.h"
 #include "clutterseg/objects_t.hpp"
 #include "clutterseg/status_t.hpp"
 #include "tests/daemon/daemon_test_util.h"
@@ -128,6 +131,78 @@ TEST(LcmBus, FileLogIsReadBackWithLogFile) {
     EXPECT_EQ(m.num_objects, 3);
   }
   EXPECT_EQ(events.back().channel, "CLUTTERSEG_STATUS");
+}
+
+// The log is read back while it is written (once a second), so that Verify() after a stop reads
+// only the last second's events, however long the run: an appended log of earlier events and
+// this run's events verify whole; damage in events already read back is found during the run,
+// and damage in the rest by Verify().
+TEST(LcmLogFile, ReadBackWhileWritingAndTheRestAtTheEnd) {
+  const auto dir = testing::ScratchDir("lcm_log_readback");
+  const std::string path = (dir / "out.lcmlog").string();
+  const std::string payload(1000, 'x');
+  {
+    LcmLogFile earlier(FileLogUrl{path, false});
+    for (int i = 0; i < 500; ++i) ASSERT_TRUE(earlier.Write("EARLIER", payload.data(), 100));
+    EXPECT_EQ(earlier.Verify(), "");
+  }
+  const auto write_for_a_check = [&](LcmLogFile* log) {
+    for (int i = 0; i < 50; ++i) ASSERT_TRUE(log->Write("CH", payload.data(), payload.size()));
+    std::this_thread::sleep_for(std::chrono::milliseconds(1100));   // past the check period
+    ASSERT_TRUE(log->Write("CH", payload.data(), payload.size()));  // checks what is written
+  };
+  const auto corrupt = [&](uint64_t at) {
+    const int fd = open(path.c_str(), O_WRONLY);
+    ASSERT_GE(fd, 0);
+    ASSERT_EQ(pwrite(fd, "JUNK", 4, static_cast<off_t>(at)), 4);
+    close(fd);
+  };
+  const uint64_t event_bytes = 28 + 2 + payload.size();
+  {
+    LcmLogFile log(FileLogUrl{path, true});
+    EXPECT_EQ(log.events_before(), 500u);
+    write_for_a_check(&log);
+    for (int i = 0; i < 10; ++i) ASSERT_TRUE(log.Write("CH", payload.data(), payload.size()));
+    EXPECT_EQ(log.written(), 61u);
+    EXPECT_EQ(log.Verify(), "");
+    // A sync word overwritten in the last ten events (not read back yet): found by Verify.
+    const uint64_t size = std::filesystem::file_size(path);
+    corrupt(size - 3 * event_bytes);
+    const std::string problem = log.Verify();
+    EXPECT_NE(problem.find("is cut short"), std::string::npos) << problem;
+    EXPECT_NE(problem.find("no sync word at byte " + std::to_string(size - 3 * event_bytes)),
+              std::string::npos)
+        << problem;
+  }
+  {
+    LcmLogFile log(FileLogUrl{path, false});
+    for (int i = 0; i < 20; ++i) ASSERT_TRUE(log.Write("CH", payload.data(), payload.size()));
+    corrupt(5 * event_bytes);  // damage before the next check: the check finds it
+    write_for_a_check(&log);
+    const std::string problem = log.Verify();
+    EXPECT_NE(problem.find("no sync word at byte " + std::to_string(5 * event_bytes) +
+                           " (read back while writing)"),
+              std::string::npos)
+        << problem;
+  }
+}
+
+// A FIFO named as a log to read used to block liblcm's open until a writer came
+// (clutterseg-listen hung): refused at once, naming it, as for a log that is written.
+TEST(LcmBus, AFifoAsALogToReadIsRefusedWithoutBlocking) {
+  const auto dir = testing::ScratchDir("lcm_bus_fifo");
+  const std::string fifo = (dir / "log.fifo").string();
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& url : {"file://" + fifo + "?speed=0", "file://" + fifo}) {
+    try {
+      LcmBus dut(url);
+      ADD_FAILURE() << url << " was opened";
+    } catch (const LcmUnavailableError& e) {
+      EXPECT_NE(std::string(e.what()).find(fifo + " is not a regular file"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(LcmBus, UnopenableUrlsThrowWithAClearMessage) {

@@ -7,6 +7,7 @@
 #include <string>
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include "clutterseg/daemon/lcm_bus.h"
 #include "clutterseg/daemon/messages.h"
@@ -145,6 +146,18 @@ TEST(Regress, ATornOrDamagedLogIsRefusedNamingTheByte) {
   EXPECT_NE(err.find(damaged + ": not a whole LCM log"), std::string::npos) << err;
   EXPECT_EQ(testutil::Run({CLUTTERSEG_REGRESS_EXE, a, a}, std::chrono::seconds(60), &err), 0)
       << err;
+}
+
+// A FIFO given as a log used to block the scan's open until a writer came (clutterseg-regress
+// hung): refused at once, exit 2, naming it.
+TEST(Regress, AFifoIsRefusedWithoutBlocking) {
+  const std::string a = WriteRun("fifo_a", 3, 0.f);
+  const std::string fifo = (std::filesystem::path(a).parent_path() / "log.fifo").string();
+  std::filesystem::remove(fifo);
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  std::string err;
+  EXPECT_EQ(testutil::Run({CLUTTERSEG_REGRESS_EXE, a, fifo}, std::chrono::seconds(60), &err), 2);
+  EXPECT_NE(err.find(fifo + ": not a whole LCM log: not a regular file"), std::string::npos) << err;
 }
 
 TEST(Listen, PrintsObjectsAndWritesLabelPngsFromALog) {

@@ -1,11 +1,16 @@
 #include "clutterseg/daemon/sink_queue.h"
 
 #include <chrono>
+#include <cstdio>
+#include <filesystem>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "clutterseg/daemon/overlay_writer.h"
+#include "tests/testing/test_data.h"
 
 namespace clutterseg::daemon {
 namespace {
@@ -100,6 +105,55 @@ TEST(SinkQueue, APushWakesAWaitingConsumer) {
   dut.Push(&v);
   consumer.join();
   EXPECT_EQ(got, 42);
+}
+
+// A stop does not wait for a slow consumer: the waiting items are dropped and counted, Pop
+// gets none of them, and a Push after it is refused.
+TEST(SinkQueue, CloseAndDropWaitingCountsWhatWaited) {
+  SinkQueue<std::vector<int>> dut(4);
+  for (int i = 0; i < 3; ++i) {
+    std::vector<int> item{i};
+    ASSERT_TRUE(dut.Push(&item));
+  }
+  EXPECT_EQ(dut.CloseAndDropWaiting(), 3u);
+  EXPECT_EQ(dut.dropped(), 3u);
+  EXPECT_TRUE(dut.drained());
+  std::vector<int> out;
+  EXPECT_FALSE(dut.Pop(&out, milliseconds(1)));
+  std::vector<int> late{9};
+  EXPECT_FALSE(dut.Push(&late));
+}
+
+// The overlay writer at a stop: every frame offered is written or dropped (counted), the
+// directory holds exactly the written PNGs and no temporary file, and Finish(true) does not
+// write what still waits.
+TEST(OverlayWriter, AStopDropsWhatWaitsAndCountsEveryFrame) {
+  const std::filesystem::path dir = testing::ScratchDir("overlay_stop");
+  OverlayWriterParams params;
+  params.png_dir = dir.string();
+  params.queue_capacity = 8;
+  OverlayWriter dut(params);
+  dut.Start();
+  constexpr int kFrames = 8;
+  for (int i = 0; i < kFrames; ++i) {
+    OverlayFrame f;
+    f.sequence = static_cast<uint64_t>(i);
+    f.labels = core::LabelImage(640, 480);
+    f.base = core::ColorImage(640, 480);
+    dut.Offer(&f);
+  }
+  dut.Finish(true);
+  EXPECT_EQ(dut.written() + dut.dropped() + dut.failures(), static_cast<uint64_t>(kFrames));
+  EXPECT_EQ(dut.failures(), 0u) << dut.last_error();
+  uint64_t files = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    EXPECT_EQ(e.path().extension(), ".png") << e.path() << ": only whole PNGs";
+    ++files;
+  }
+  EXPECT_EQ(files, dut.written());
+  std::printf("stop with %d overlays offered: %llu written, %llu dropped\n", kFrames,
+              static_cast<unsigned long long>(dut.written()),
+              static_cast<unsigned long long>(dut.dropped()));
 }
 
 }  // namespace

@@ -397,8 +397,8 @@ def main():
           "ground truth without label must exit 1 naming it: %r" % proc.stderr)
     missing_file = os.path.join(opt.workdir, "does_not_exist.pcd")
     proc = run_tool(opt.tool, [missing_file, small])
-    check(proc.returncode == 1 and missing_file in proc.stderr,
-          "absent input must exit 1 naming it: %r" % proc.stderr)
+    check(proc.returncode == 3 and missing_file in proc.stderr,
+          "absent input must exit 3 (input cannot be opened) naming it: %r" % proc.stderr)
     for bad in ([a, small, "--gt-convention", "mosd"], [a], [a, gt_dir],
                 [a, small, "--coverage-percent", "0"], [a, small, "--ocid-background", "x"],
                 [a, small, "--no-such-flag"]):

@@ -61,6 +61,23 @@ TEST(EvalTool, OrganizedCloudsOfAnotherLayoutAreRefused) {
   EXPECT_NE(r.err.find("10x20"), std::string::npos) << r.err;
 }
 
+// A ground truth or prediction that does not exist is an input that cannot be opened: exit 3,
+// as for clutterseg-segment and the daemon (it was 1, the code of a data error).
+TEST(EvalTool, MissingInputsExitThreeNamingThem) {
+  const fs::path dir = testing::ScratchDir("eval_tool_missing");
+  io::WritePcd((dir / "gt.pcd").string(), Labelled(20, 10));
+  ProcessResult r = Eval({(dir / "none.pcd").string(), (dir / "gt.pcd").string(), "-q"});
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("ground truth '" + (dir / "none.pcd").string() + "' not found"),
+            std::string::npos)
+      << r.err;
+  r = Eval({(dir / "gt.pcd").string(), (dir / "none.pcd").string(), "-q"});
+  EXPECT_EQ(r.exit_code, 3) << r.err;
+  EXPECT_NE(r.err.find("prediction '" + (dir / "none.pcd").string() + "' not found"),
+            std::string::npos)
+      << r.err;
+}
+
 TEST(EvalTool, BadPairsAreReportedAndTheOthersScored) {
   const fs::path dir = testing::ScratchDir("eval_tool_dirs");
   fs::create_directories(dir / "gt");

@@ -86,6 +86,14 @@ TEST(ExtrinsicsJson, RefusesEveryBadFileNamingTheField) {
       {"huge.json",
        R"({"parent_frame": "b", "translation": [1e999, 0, 0], "rotation_xyzw": [0, 0, 0, 1]})",
        "number out of range"},
+      // A NUL or newline in the frame name: LCM cannot encode it (every objects_t was refused
+      // at publish, exit 5 after the run, until the hostile campaign).
+      {"nul_frame.json",
+       R"({"parent_frame": "base\u0000link", "translation": [0, 0, 0], "rotation_xyzw": [0, 0, 0, 1]})",
+       "'parent_frame' holds a control character at byte 4"},
+      {"newline_frame.json",
+       R"({"parent_frame": "base\nlink", "translation": [0, 0, 0], "rotation_xyzw": [0, 0, 0, 1]})",
+       "'parent_frame' holds a control character at byte 4"},
       {"frame_number.json",
        R"({"parent_frame": 3, "translation": [0, 0, 0], "rotation_xyzw": [0, 0, 0, 1]})",
        "'parent_frame' is not a string"},

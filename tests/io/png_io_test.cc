@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <random>
 #include <stdexcept>
@@ -11,6 +12,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include "clutterseg/io/pcd.h"
 #include "tests/testing/test_data.h"
@@ -271,6 +273,27 @@ TEST(IntrinsicsJsonTest, ErrorsNameFileAndKey) {
 
 // Valid intrinsics (the default Kinect's) in the members of a JSON object.
 constexpr const char* kValidMembers = R"("fx": 525, "fy": 525, "cx": 319.5, "cy": 239.5)";
+
+// A FIFO (or device) given as an intrinsics JSON, a PNG or a PCD used to block the reader's
+// open until a writer came: clutterseg-segment --intrinsics FIFO, the daemon's
+// camera.intrinsics_file / camera.extrinsics_file and a FIFO named as a frame hung. Each
+// reader now refuses what is not a regular file, naming it, without waiting.
+TEST(IntrinsicsJsonTest, FifosAndDevicesAreRefusedWithoutBlocking) {
+  const auto dir = testing::ScratchDir("fifo_inputs");
+  for (const char* name : {"k.json", "depth.png", "cloud.pcd"}) {
+    const std::string fifo = (dir / name).string();
+    std::filesystem::remove(fifo);
+    ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0) << fifo;
+  }
+  ExpectFailure([&] { ReadIntrinsicsJson((dir / "k.json").string()); }, (dir / "k.json").string(),
+                "not a regular file");
+  ExpectFailure([&] { ReadDepthPng((dir / "depth.png").string()); }, (dir / "depth.png").string(),
+                "not a regular file");
+  core::PointCloud cloud;
+  ExpectFailure([&] { ReadPcd((dir / "cloud.pcd").string(), ReadLimits{}, &cloud); },
+                (dir / "cloud.pcd").string(), "not a regular file");
+  ExpectFailure([&] { ReadIntrinsicsJson("/dev/zero"); }, "/dev/zero", "not a regular file");
+}
 
 TEST(IntrinsicsJsonTest, DecodesEscapesAndEveryNumberForm) {
   const auto dir = testing::ScratchDir("json_values");

@@ -382,6 +382,36 @@ TEST(SegmentTool, UnorganizedCloudKeepsItsLayoutAndPointOrder) {
   EXPECT_EQ(png.height, kH / 2);
 }
 
+// A bad --intrinsics file is a configuration error, as camera.intrinsics_file is for the
+// daemon: exit 2 (kExitUsage) with one message naming the file and the key, before any frame
+// is read and nothing written. It used to fail every frame instead (exit 1, one error per
+// frame) while the daemon refused the same file with 2.
+TEST(SegmentTool, BadIntrinsicsFileIsAUsageErrorNamingFileAndKey) {
+  const fs::path dir = testing::ScratchDir("segment_tool_bad_intrinsics");
+  WriteTabletopPcd(dir / "in.pcd", 0);
+  struct Case {
+    const char* name;
+    const char* text;  // nullptr: the file is missing
+    const char* expect;
+  };
+  const Case cases[] = {
+      {"cx.json", R"({"fx": 525, "fy": 525, "cx": 1e30, "cy": 239.5})", "cx"},
+      {"notjson.json", "fx: 525", "notjson.json"},
+      {"missing.json", nullptr, "missing.json"},
+  };
+  for (const Case& c : cases) {
+    const fs::path k = dir / c.name;
+    if (c.text != nullptr) std::ofstream(k) << c.text;
+    const fs::path out = dir / "out.pcd";
+    const ProcessResult r =
+        Segment({(dir / "in.pcd").string(), out.string(), "--intrinsics", k.string()});
+    EXPECT_EQ(r.exit_code, 2) << c.name << ": " << r.err;
+    EXPECT_NE(r.err.find("--intrinsics"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.name << ": nothing is written";
+  }
+}
+
 TEST(SegmentToolRealData, TumDepthNeedsItsScale) {
   CLUTTERSEG_REQUIRE_DATA("tum-frame/TUM_depth.png");
   const fs::path tum = testing::DataDir() / "tum-frame";

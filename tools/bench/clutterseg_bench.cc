@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 #include <sys/resource.h>
 
+#include "clutterseg/config/key_table.h"
 #include "clutterseg/config/segmenter_keys.h"
 #include "clutterseg/core/exit_codes.h"
 #include "clutterseg/core/thread_pool.h"
@@ -464,7 +465,11 @@ int Run(int argc, char** argv) {
 
   pipeline::SegmenterParams params;
   for (const std::string& o : opt.overrides) {
-    config::ApplySegmenterOverride(o, &params);
+    try {
+      config::ApplySegmenterOverride(o, &params);
+    } catch (const config::ConfigError& e) {  // an unknown key or bad value: usage, exit 2
+      throw std::invalid_argument(std::string("--set ") + e.what());
+    }
     std::printf("segmenter parameter %s\n", o.c_str());
   }
   params.ValidateOrThrow();

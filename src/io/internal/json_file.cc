@@ -10,6 +10,8 @@
 #include <unordered_set>
 #include <vector>
 
+#include <sys/stat.h>
+
 namespace clutterseg::io::internal {
 namespace {
 
@@ -94,6 +96,10 @@ std::optional<double> FindNumber(const std::string& path, const Json& obj,
 }
 
 Json ReadJsonFile(const std::string& path, const std::string& what) {
+  // A FIFO would block fopen() until a writer comes: refused before it is opened.
+  if (struct stat st{}; stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    Fail(path, "not a regular file (a FIFO, device or directory); not " + what);
+  }
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"),
                                                           &std::fclose);
   if (f == nullptr) Fail(path, std::string("cannot open: ") + std::strerror(errno));
