@@ -17,6 +17,8 @@
 #include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
+#include "clutterseg/config/internal/yaml_file.h"
+
 namespace clutterseg::config {
 
 bool ParseBool(const std::string& text) {
@@ -246,8 +248,7 @@ void WalkYaml(const std::string& text, const std::string& origin,
   YAML::Node doc;
   int second = 0;
   try {
-    doc = YAML::Load(text);
-    second = SecondYamlDocumentLine(text);
+    doc = LoadYamlDocument(text, &second);
   } catch (const YAML::Exception& e) {
     throw ConfigError(Where(origin, e.mark) + ": YAML syntax error: " + e.msg);
   }

@@ -10,14 +10,18 @@ void FailYamlFile(const std::string& path, const std::string& kind, const std::s
   throw ConfigError(path + ": " + kind + ": " + what);
 }
 
+YAML::Node LoadYamlDocument(const std::string& text, int* second_line) {
+  YAML::Node doc = YAML::Load(text);
+  *second_line = SecondYamlDocumentLine(text);
+  return doc;
+}
+
 YAML::Node LoadYamlFile(const std::string& path, const std::string& kind) {
   const std::string text = ReadConfigFile(path);
   YAML::Node doc;
   int second = 0;
   try {
-    doc = YAML::Load(text);
-    // yaml-cpp's Load() reads the first document and drops the rest without a word.
-    second = SecondYamlDocumentLine(text);
+    doc = LoadYamlDocument(text, &second);
   } catch (const YAML::Exception& e) {
     FailYamlFile(path, kind, "line " + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }

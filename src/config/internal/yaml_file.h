@@ -10,6 +10,12 @@
 
 namespace clutterseg::config::internal {
 
+/// Reads the one YAML document of `text` (yaml-cpp's Load(), which drops any later document
+/// without a word) and sets `*second_line` to SecondYamlDocumentLine(text) (0: none), so that
+/// each caller refuses a second document in its own words. Thread-safe.
+/// @throws YAML::Exception (yaml-cpp's) on a syntax error.
+YAML::Node LoadYamlDocument(const std::string& text, int* second_line);
+
 /// Reads `path` (internal::ReadConfigFile: a regular file of at most 1 MiB) as exactly one
 /// YAML document. @throws ConfigError "<path>: <kind>: line L: ..." on a syntax error or a
 /// second document.
