@@ -6,8 +6,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 #include <lcm/lcm.h>
-#include <sys/stat.h>
 
+#include "clutterseg/core/file_kind.h"
 #include "clutterseg/daemon/lcm_log_file.h"
 
 namespace clutterseg::daemon {
@@ -47,16 +47,12 @@ LcmBus::LcmBus(const std::string& url) : url_(url) {
     }
     return;
   }
-  if (url.rfind("file://", 0) == 0) {
-    // A log to read: liblcm's fopen() of a FIFO would wait for a writer, and a directory or
-    // device is no log; refused before LCM opens it.
-    const std::string path =
-        url.substr(7, url.find('?') == std::string::npos ? std::string::npos : url.find('?') - 7);
-    if (struct stat st{}; stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
-      throw LcmUnavailableError("cannot open LCM URL '" + url + "': " + path +
-                                " is not a regular file (a FIFO, device or directory); LCM "
-                                "reads logs from regular files");
-    }
+  // A log to read: liblcm's fopen() of a FIFO would wait for a writer, and a directory or
+  // device is no log; refused before LCM opens it.
+  if (const std::string path = FileUrlPath(url); !path.empty() && core::IsNonRegularFile(path)) {
+    throw LcmUnavailableError("cannot open LCM URL '" + url + "': " + path +
+                              " is not a regular file (a FIFO, device or directory); LCM "
+                              "reads logs from regular files");
   }
   lcm_ = std::make_unique<lcm::LCM>(url);
   if (!lcm_->good()) {

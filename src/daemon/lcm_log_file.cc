@@ -51,10 +51,6 @@ int64_t FindWholeEventAfter(int fd, uint64_t from, uint64_t size) {
   return -1;
 }
 
-}  // namespace
-
-namespace {
-
 // Scans the events of `fd` from byte `pos` (the start of an event) up to `file_bytes`: one
 // pread of each event's header, the channel and data skipped (not read). `events` counts the
 // events from `pos`; `parsed_bytes` is the end of the last whole one (absolute).
@@ -98,36 +94,46 @@ LcmLogScan ScanFrom(int fd, uint64_t pos, uint64_t file_bytes) {
   return scan;
 }
 
-}  // namespace
-
-LcmLogScan ScanLcmLog(const std::string& path) {
+// Scans the log at `path` from byte `from` (the start of an event, 0 = the whole log).
+LcmLogScan ScanPathFrom(const std::string& path, uint64_t from) {
+  LcmLogScan scan;
   // O_NONBLOCK: a FIFO must not block the open (it is refused just below).
   const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
   if (fd < 0) {
-    LcmLogScan scan;
     scan.problem = "cannot open " + path + ": " + std::strerror(errno);
     return scan;
   }
   struct stat st {};
-  LcmLogScan scan;
   if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
     scan.problem = "not a regular file (a FIFO, device or directory)";
+  } else if (static_cast<uint64_t>(st.st_size) < from) {
+    scan.problem = "it is " + std::to_string(st.st_size) + " bytes, shorter than the " +
+                   std::to_string(from) + " already read back";
   } else {
-    scan = ScanFrom(fd, 0, static_cast<uint64_t>(st.st_size));
+    scan = ScanFrom(fd, from, static_cast<uint64_t>(st.st_size));
   }
   close(fd);
   return scan;
 }
 
+}  // namespace
+
+LcmLogScan ScanLcmLog(const std::string& path) { return ScanPathFrom(path, 0); }
+
+std::string FileUrlPath(const std::string& url) {
+  if (url.rfind("file://", 0) != 0) return "";
+  const size_t q = url.find('?', 7);
+  return url.substr(7, q == std::string::npos ? std::string::npos : q - 7);
+}
+
 bool ParseFileLogUrl(const std::string& url, FileLogUrl* log) {
   if (url.rfind("file://", 0) != 0) return false;
-  const std::string rest = url.substr(7);
-  const size_t q = rest.find('?');
-  const std::string query = q == std::string::npos ? "" : rest.substr(q + 1);
+  const size_t q = url.find('?', 7);
+  const std::string query = q == std::string::npos ? "" : url.substr(q + 1);
   const bool write = query.find("mode=w") != std::string::npos;
   const bool append = query.find("mode=a") != std::string::npos;
   if (!write && !append) return false;  // read mode: a replay, not a log we write
-  log->path = rest.substr(0, q);
+  log->path = FileUrlPath(url);
   log->append = append;
   return true;
 }
@@ -279,20 +285,7 @@ std::string LcmLogFile::Verify() const {
   }
   // The events up to checked_end_ were read back while the run wrote (CheckWritten); only the
   // rest is read here, so that the time this takes at the end does not grow with the run.
-  LcmLogScan scan;
-  const int fd = open(log_.path.c_str(), O_RDONLY | O_CLOEXEC);
-  struct stat st {};
-  if (fd < 0) {
-    scan.problem = "cannot open " + log_.path + ": " + std::strerror(errno);
-  } else if (fstat(fd, &st) != 0) {
-    scan.problem = std::string("cannot stat it: ") + std::strerror(errno);
-  } else if (static_cast<uint64_t>(st.st_size) < checked_end_) {
-    scan.problem = "it is " + std::to_string(st.st_size) + " bytes, shorter than the " +
-                   std::to_string(checked_end_) + " already read back";
-  } else {
-    scan = ScanFrom(fd, checked_end_, static_cast<uint64_t>(st.st_size));
-  }
-  if (fd >= 0) close(fd);
+  LcmLogScan scan = ScanPathFrom(log_.path, checked_end_);
   if (!check_problem_.empty()) {
     scan.complete = false;
     scan.problem = check_problem_;

@@ -28,6 +28,9 @@ struct FileLogUrl {
   bool append{false};
 };
 
+/// The path of a file:// URL (what comes before its `?`), "" for any other URL.
+std::string FileUrlPath(const std::string& url);
+
 /// True (filling `log`) when `url` is a file:// URL that writes a log (mode=w or mode=a).
 bool ParseFileLogUrl(const std::string& url, FileLogUrl* log);
 

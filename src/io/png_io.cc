@@ -23,6 +23,7 @@
 #include <sys/stat.h>
 
 #include "clutterseg/core/assert.h"
+#include "clutterseg/core/file_kind.h"
 #include "clutterseg/io/internal/json_file.h"
 
 namespace clutterseg::io {
@@ -202,7 +203,7 @@ void FilterSub(const uint8_t* row, size_t row_bytes, size_t bpp, uint8_t* out) {
 
 FilePtr OpenForRead(const std::string& path, size_t* size) {
   // A FIFO would block fopen() until a writer comes: refused before it is opened.
-  if (struct stat st{}; stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+  if (core::IsNonRegularFile(path)) {
     Fail(path, "not a regular file (a FIFO, device or directory)");
   }
   FilePtr f(std::fopen(path.c_str(), "rb"));

@@ -10,7 +10,7 @@
 #include <unordered_set>
 #include <vector>
 
-#include <sys/stat.h>
+#include "clutterseg/core/file_kind.h"
 
 namespace clutterseg::io::internal {
 namespace {
@@ -97,7 +97,7 @@ std::optional<double> FindNumber(const std::string& path, const Json& obj,
 
 Json ReadJsonFile(const std::string& path, const std::string& what) {
   // A FIFO would block fopen() until a writer comes: refused before it is opened.
-  if (struct stat st{}; stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+  if (core::IsNonRegularFile(path)) {
     Fail(path, "not a regular file (a FIFO, device or directory); not " + what);
   }
   const std::unique_ptr<std::FILE, int (*)(std::FILE*)> f(std::fopen(path.c_str(), "rb"),
