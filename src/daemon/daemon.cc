@@ -2,9 +2,11 @@
 
 #include <pthread.h>
 
+#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdio>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -30,16 +32,21 @@ namespace {
 // (The frame itself may be back in the queue by then.)
 struct LaneOutput {
   uint64_t sequence{0};
+  std::shared_ptr<const core::Extrinsics> extrinsics;  // the pose this frame is published in
   FrameMessages messages;
   OverlayFrame overlay;
 };
+
+std::shared_ptr<const core::Extrinsics> ToShared(std::optional<core::Extrinsics> e) {
+  return e ? std::make_shared<const core::Extrinsics>(std::move(*e)) : nullptr;
+}
 
 }  // namespace
 
 struct Daemon::Impl {
   Impl(const DaemonConfig& c, std::unique_ptr<core::FrameSource> s, LcmBus* b)
       : config((c.ValidateOrThrow(), c)),
-        extrinsics(LoadExtrinsics(c.camera)),
+        extrinsics(ToShared(LoadExtrinsics(c.camera))),
         source(std::move(s)),
         bus(b),
         queue(core::MakeFrameQueue(
@@ -69,8 +76,10 @@ struct Daemon::Impl {
   }
 
   const DaemonConfig config;
-  // camera.extrinsics_file: publish in its parent frame; unset = the camera frame.
-  const std::optional<core::Extrinsics> extrinsics;
+  // camera.extrinsics_file: publish in its parent frame; null = the camera frame. Replaced
+  // by a reload (UpdateExtrinsics); each lane takes the current one when its frame starts.
+  std::shared_ptr<const core::Extrinsics> extrinsics;  // (extrinsics_mutex)
+  std::mutex extrinsics_mutex;
   std::unique_ptr<core::FrameSource> source;
   LcmBus* bus;
   std::string source_description;
@@ -181,8 +190,12 @@ struct Daemon::Impl {
       SampleObjectPoints(lane.segmenter->working_cloud(), result.labels, config.lcm.object_points,
                          &m.objects);
     }
-    if (extrinsics) {
-      ToParentFrame(*extrinsics, lane.segmenter->working_cloud(), result.labels, &m.objects);
+    {
+      std::lock_guard<std::mutex> lock(extrinsics_mutex);
+      out.extrinsics = extrinsics;
+    }
+    if (out.extrinsics) {
+      ToParentFrame(*out.extrinsics, lane.segmenter->working_cloud(), result.labels, &m.objects);
     }
     m.has_labels = config.lcm.publish_labels;
     if (m.has_labels) {
@@ -278,7 +291,7 @@ struct Daemon::Impl {
       }
       tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking);
       ToTrackMessage(tracking, &out.messages.objects);
-      if (extrinsics) LostTracksToParentFrame(*extrinsics, &out.messages.objects);
+      if (out.extrinsics) LostTracksToParentFrame(*out.extrinsics, &out.messages.objects);
     }
     if (overlay) {
       pipeline::OverlayObjectsFrom(lane.result->objects, &out.overlay.objects);
@@ -475,6 +488,20 @@ void Daemon::UpdateTrackerParams(const pipeline::TrackerParams& params) {
   params.ValidateOrThrow();
   std::lock_guard<std::mutex> lock(impl_->tracker_params_mutex);
   impl_->pending_tracker_params = std::make_unique<pipeline::TrackerParams>(params);
+}
+
+bool Daemon::UpdateExtrinsics(std::optional<core::Extrinsics> extrinsics) {
+  std::shared_ptr<const core::Extrinsics> fresh = ToShared(std::move(extrinsics));
+  std::lock_guard<std::mutex> lock(impl_->extrinsics_mutex);
+  const core::Extrinsics* old = impl_->extrinsics.get();
+  const bool changed =
+      (old == nullptr) != (fresh == nullptr) ||
+      (old != nullptr &&
+       (old->parent_frame != fresh->parent_frame || old->child_frame != fresh->child_frame ||
+        !std::equal(old->translation_m, old->translation_m + 3, fresh->translation_m) ||
+        !std::equal(old->rotation_xyzw, old->rotation_xyzw + 4, fresh->rotation_xyzw)));
+  impl_->extrinsics = std::move(fresh);
+  return changed;
 }
 
 bool Daemon::WaitFor(std::chrono::milliseconds timeout) {

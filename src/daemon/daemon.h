@@ -47,7 +47,8 @@ struct DaemonStats : StatusCounters {
 /// thread: errors are recorded, reported in status_t and end the run with exit code 1.
 ///
 /// Thread-safety: Open, Start, WaitFor and Join from the owning thread; RequestStop,
-/// UpdateSegmenterParams, stats() and error() from any thread.
+/// UpdateSegmenterParams, UpdateTrackerParams, UpdateExtrinsics, stats() and error() from any
+/// thread.
 class Daemon {
  public:
   Daemon(const Daemon&) = delete;
@@ -80,6 +81,11 @@ class Daemon {
   /// Replaces the tracker's parameters before the next frame it tracks; the tracks are kept.
   /// No effect with tracker.enabled false. @throws std::invalid_argument when invalid.
   void UpdateTrackerParams(const pipeline::TrackerParams& params);
+  /// Replaces the camera's pose in its parent frame (camera.extrinsics_file; nullopt = the
+  /// camera frame) from the next frame a lane starts; each frame's objects and lost tracks are
+  /// published with the pose its lane started with. Returns true when the pose or the frame
+  /// changed.
+  bool UpdateExtrinsics(std::optional<core::Extrinsics> extrinsics);
   /// Waits until every thread has finished (end of stream, max_frames, stop or error) or
   /// `timeout` passes; returns true when finished.
   bool WaitFor(std::chrono::milliseconds timeout);

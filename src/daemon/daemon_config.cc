@@ -101,6 +101,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
                 &pipeline::FrameRunnerParams::pipeline_depth),
         MakeKey("processing.max_frames", &C::capture, &CaptureParams::max_frames),
         MakeKey("processing.prefault_heap_mb", &C::heap, &HeapParams::prefault_mb),
+        MakeKey("processing.realtime_priority", &C::realtime, &RealtimeParams::priority),
         MakeKey("status.period_s", &C::status, &StatusReporterParams::period_s),
         MakeKey("reconnect.backoff_min_s", &C::capture, &CaptureParams::reconnect_backoff_min_s),
         MakeKey("reconnect.backoff_max_s", &C::capture, &CaptureParams::reconnect_backoff_max_s),
@@ -149,6 +150,7 @@ void DaemonConfig::ValidateOrThrow() const {
   capture.ValidateOrThrow();
   processing.ValidateOrThrow();
   heap.ValidateOrThrow();
+  realtime.ValidateOrThrow();
   lcm.ValidateOrThrow();
   status.ValidateOrThrow();
   overlay.ValidateOrThrow();

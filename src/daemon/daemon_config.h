@@ -9,6 +9,7 @@
 #include "clutterseg/daemon/lcm_publisher.h"
 #include "clutterseg/daemon/log.h"
 #include "clutterseg/daemon/overlay_writer.h"
+#include "clutterseg/daemon/realtime.h"
 #include "clutterseg/daemon/source_params.h"
 #include "clutterseg/daemon/status_reporter.h"
 #include "clutterseg/pipeline/frame_runner.h"
@@ -31,6 +32,7 @@ struct DaemonConfig {
   CaptureParams capture;                   ///< speed, loop, camera_name, queue, reconnect
   pipeline::FrameRunnerParams processing;  ///< processing.threads, processing.pipeline_depth
   HeapParams heap;                         ///< processing.prefault_heap_mb
+  RealtimeParams realtime;                 ///< processing.realtime_priority
   LcmPublisherParams lcm;                  ///< lcm.*
   StatusReporterParams status;             ///< status.*
   OverlayWriterParams overlay;             ///< output.*

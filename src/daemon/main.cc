@@ -15,6 +15,7 @@
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -29,9 +30,11 @@
 #include "clutterseg/daemon/lcm_log_file.h"
 #include "clutterseg/daemon/lcm_url.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/realtime.h"
 #include "clutterseg/daemon/run_watch.h"
 #include "clutterseg/daemon/signal_watcher.h"
 #include "clutterseg/daemon/source_factory.h"
+#include "clutterseg/daemon/source_params.h"
 #include "clutterseg/daemon/systemd_notify.h"
 #include "clutterseg/version.h"
 
@@ -113,10 +116,17 @@ void Reload(const CommandLine& cl, Daemon* daemon) {
   }
   try {
     const DaemonConfig fresh = BuildConfig(cl);
+    // Everything read before anything is applied: a bad file keeps the current state whole.
+    std::optional<core::Extrinsics> extrinsics = LoadExtrinsics(fresh.camera);
     daemon->UpdateSegmenterParams(fresh.segmenter);
     daemon->UpdateTrackerParams(fresh.tracker);
+    const std::string frame = extrinsics ? "frame '" + extrinsics->parent_frame + "' (" +
+                                               fresh.camera.extrinsics_file + ")"
+                                         : "the camera frame";
+    const bool moved = daemon->UpdateExtrinsics(std::move(extrinsics));
     Log(LogLevel::kInfo, "SIGHUP: segmenter parameters reloaded from " + cl.config_path +
                              " (applied from the next frame)");
+    if (moved) Log(LogLevel::kInfo, "SIGHUP: objects from the next frame in " + frame);
   } catch (const std::exception& e) {
     Log(LogLevel::kError,
         std::string("SIGHUP: reload failed, keeping the current parameters: ") + e.what());
@@ -142,7 +152,8 @@ int Run(int argc, char** argv) {
       "command line or configuration, 3 source cannot be opened, 4 LCM unavailable, 5 "
       "finished but not everything was delivered (named in the last log line).\n"
       "Signals: SIGINT/SIGTERM finish the frames in flight and exit (a second one exits at "
-      "once); SIGHUP reloads the segmenter and tracker parameters from --config.");
+      "once); SIGHUP reloads the segmenter and tracker parameters and the extrinsics from "
+      "--config.");
   app.add_option("--config", cl.config_path,
                  "YAML configuration file (see config/clutterseg.yaml)");
   app.add_option("--source", cl.source,
@@ -268,12 +279,26 @@ int Run(int argc, char** argv) {
   DaemonStats stats;
   SystemdNotifier notifier;
   {
+    // processing.realtime_priority: the lanes (started by the Daemon's constructor) inherit P,
+    // the source's driver threads, capture, dispatch and publisher (started by Open and Start)
+    // P + 1; this thread returns to the normal class once they run.
+    const int rt = cfg.realtime.priority;
+    bool realtime = rt > 0;
+    if (std::string problem; realtime && !SetThreadRealtime(rt, &problem)) {
+      Log(LogLevel::kWarn, "processing.realtime_priority = " + std::to_string(rt) + ": " + problem +
+                               "; running in the normal scheduling class");
+      realtime = false;
+    }
     std::unique_ptr<Daemon> daemon;
     try {
       daemon = std::make_unique<Daemon>(cfg, std::move(source), bus.get());
     } catch (const std::invalid_argument& e) {
       Log(LogLevel::kError, std::string("configuration: ") + e.what());
       return kExitUsage;
+    }
+    if (std::string problem; realtime && !SetThreadRealtime(rt + 1, &problem)) {
+      Log(LogLevel::kWarn, "processing.realtime_priority = " + std::to_string(rt) + ": " + problem +
+                               "; the capture path runs at the lanes' priority");
     }
     try {
       daemon->Open();
@@ -307,6 +332,14 @@ int Run(int argc, char** argv) {
       daemon.reset();
       ShutdownSourceDrivers();
       return kExitUsage;
+    }
+    if (std::string problem; realtime && !SetThreadRealtime(0, &problem)) {
+      Log(LogLevel::kWarn, "cannot return the main thread to the normal class: " + problem);
+    }
+    if (realtime) {
+      Log(LogLevel::kInfo, "real-time scheduling: SCHED_FIFO, segmentation at priority " +
+                               std::to_string(rt) + ", capture and publishing at " +
+                               std::to_string(rt + 1));
     }
     Log(LogLevel::kInfo, "source " + daemon->source_description() + " -> LCM " + bus->url() + " (" +
                              cfg.lcm.objects_channel + ")");

@@ -14,6 +14,7 @@
 
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/realtime.h"
 #include "clutterseg/io/png_io.h"
 #include "clutterseg/pipeline/overlay.h"
 
@@ -73,6 +74,10 @@ void OverlayWriter::Loop() {
   // The lowest priority: PNGs take the CPU the segmentation leaves (a 30 Hz camera leaves a
   // third of a frame period); when there is none, the queue drops and counts overlays instead
   // of the lanes waiting for the encoder.
+  // Never in a real-time class (processing.realtime_priority): there nice does not apply.
+  if (std::string problem; ThreadIsRealtime() && !SetThreadRealtime(0, &problem)) {
+    Log(LogLevel::kWarn, "overlay writer: cannot leave the real-time class: " + problem);
+  }
   const auto tid = static_cast<pid_t>(syscall(SYS_gettid));
   setpriority(PRIO_PROCESS, static_cast<id_t>(tid), 19);
   tid_.store(tid);

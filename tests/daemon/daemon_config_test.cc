@@ -222,6 +222,11 @@ TEST(DaemonConfig, OutOfRangeValuesAreNamed) {
   EXPECT_NE(e.find("camera_name"), std::string::npos) << e;
   EXPECT_NE(e.find("control character at byte 3"), std::string::npos) << e;
 
+  // 99 belongs to the kernel's own threads; the capture path runs at the value + 1.
+  e = ParseError("processing:\n  realtime_priority: 99\n");
+  EXPECT_NE(e.find("processing.realtime_priority"), std::string::npos) << e;
+  EXPECT_NE(e.find("= 99"), std::string::npos) << e;
+
   e = ParseError("status:\n  period_s: nan\n");
   EXPECT_NE(e.find("status.period_s"), std::string::npos) << e;
 

@@ -1,6 +1,7 @@
 // The daemon publishing in a robot's base frame: one recording replayed twice by the
 // `clutterseg` executable into file:// logs, in the camera frame and with extrinsics, and the
 // second run compared with the first transformed by those extrinsics.
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -278,6 +280,101 @@ TEST_F(DaemonFrame, ABadExtrinsicsFileExitsTwoNamingTheFileAndField) {
       kExitUsage);
   EXPECT_NE(err.find("camera.extrinsics_file = '" + path + "'"), std::string::npos) << err;
   EXPECT_NE(err.find("'transform.rotation' has norm"), std::string::npos) << err;
+}
+
+// Waits up to 10 s until the child's stderr holds `text`.
+bool WaitForText(testutil::Child* child, const std::string& text, std::string* err) {
+  for (int i = 0; i < 1000; ++i) {
+    testutil::Drain(child, err);
+    if (err->find(text) != std::string::npos) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
+TEST_F(DaemonFrame, AReloadMovesTheObjectsToTheNewPoseAndABadFileKeepsTheOld) {
+  const Pose pose;
+  const std::string good = (dir_ / "reload_hand_eye.json").string();
+  {
+    std::ofstream f(good);
+    f.precision(10);
+    f << R"({"parent_frame": "base_link", "translation": [)" << pose.t[0] << ", " << pose.t[1]
+      << ", " << pose.t[2] << R"(], "rotation_xyzw": [)" << pose.q[0] << ", " << pose.q[1] << ", "
+      << pose.q[2] << ", " << pose.q[3] << "]}\n";
+  }
+  const std::string bad = (dir_ / "reload_bad.json").string();
+  std::ofstream(bad) << R"({"parent_frame": "base_link", "translation": [0, 0, 0]})"
+                     << "\n";
+  const std::string config = (dir_ / "reload.yaml").string();
+  const auto write_config = [&](const std::string& extrinsics) {
+    std::ofstream(config) << "camera:\n  extrinsics_file: \"" << extrinsics << "\"\n";
+  };
+  write_config("");
+  const std::string log = (dir_ / "reload.lcmlog").string();
+  testutil::Child child =
+      testutil::Spawn({CLUTTERSEG_DAEMON_EXE, "--config", config, "--source", oni_, "--speed",
+                       "realtime", "--loop", "--lcm-url", "file://" + log + "?mode=w"});
+  ASSERT_GT(child.pid, 0);
+  std::string err;
+  for (int i = 0; i < 1000; ++i) {
+    std::error_code ec;
+    if (std::filesystem::file_size(log, ec) > 200000 && !ec) break;
+    testutil::Drain(&child, &err);
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  // A file without a rotation: the reload fails as a whole and the camera frame stays.
+  write_config(bad);
+  ASSERT_EQ(kill(child.pid, SIGHUP), 0);
+  ASSERT_TRUE(WaitForText(&child, "SIGHUP: reload failed, keeping the current parameters", &err))
+      << err;
+  EXPECT_NE(err.find(bad), std::string::npos) << err;
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  write_config(good);
+  ASSERT_EQ(kill(child.pid, SIGHUP), 0);
+  ASSERT_TRUE(WaitForText(&child, "SIGHUP: objects from the next frame in frame 'base_link'", &err))
+      << err;
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  ASSERT_EQ(kill(child.pid, SIGTERM), 0);
+  ASSERT_EQ(testutil::Wait(&child, std::chrono::seconds(30), &err), kExitOk) << err;
+
+  // The camera frame up to one frame, the base frame from the next one on, never back.
+  const auto msgs = Messages<clutterseg::objects_t>(log, "CLUTTERSEG_OBJECTS");
+  size_t first_base = msgs.size();
+  for (size_t i = 0; i < msgs.size(); ++i) {
+    if (msgs[i].frame_id == "base_link") {
+      first_base = i;
+      break;
+    }
+    EXPECT_EQ(msgs[i].frame_id, "camera") << "frame " << msgs[i].frame_seq;
+  }
+  ASSERT_GE(first_base, static_cast<size_t>(2 * kFrames)) << "the bad file changed nothing";
+  ASSERT_LT(first_base + kFrames, msgs.size()) << err;
+  int matched = 0;
+  for (size_t i = first_base; i < msgs.size(); ++i) {
+    EXPECT_EQ(msgs[i].frame_id, "base_link") << "frame " << msgs[i].frame_seq;
+    // The same input frame one or more passes earlier (the recording loops every kFrames), in
+    // the camera frame, moved by the pose: every object within 1 cm of one of them.
+    const clutterseg::objects_t* cam = nullptr;
+    for (size_t j = first_base; j-- > 0;) {
+      if ((msgs[i].frame_seq - msgs[j].frame_seq) % kFrames == 0) {
+        cam = &msgs[j];
+        break;
+      }
+    }
+    ASSERT_NE(cam, nullptr);
+    for (const auto& o : msgs[i].objects) {
+      double best = 1e9;
+      for (const auto& c : cam->objects) {
+        double want[3];
+        pose.Apply(c.centroid, want);
+        best = std::min(best, std::hypot(o.centroid[0] - want[0], o.centroid[1] - want[1],
+                                         o.centroid[2] - want[2]));
+      }
+      EXPECT_LT(best, 0.01) << "frame " << msgs[i].frame_seq;
+      ++matched;
+    }
+  }
+  EXPECT_GT(matched, 0);
 }
 
 }  // namespace

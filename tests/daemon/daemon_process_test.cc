@@ -1,4 +1,5 @@
 // End-to-end tests of the `clutterseg` executable: exit codes, signals and LCM logs.
+#include <sched.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -6,6 +7,8 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <sstream>
 #include <thread>
 
 #include <gtest/gtest.h>
@@ -30,6 +33,40 @@ template <typename T>
 bool Decode(const testutil::LogEvent& ev, T* msg) {
   return msg->decode(ev.data.data(), 0, static_cast<int>(ev.data.size())) ==
          static_cast<int>(ev.data.size());
+}
+
+// Scheduling of one thread of a process: its name, class (SCHED_OTHER 0, SCHED_FIFO 1) and
+// real-time priority, from /proc/PID/task/TID.
+struct ThreadSched {
+  pid_t tid{0};
+  std::string name;
+  int policy{-1};
+  int rt_priority{-1};
+};
+
+std::vector<ThreadSched> ProcessThreads(pid_t pid) {
+  std::vector<ThreadSched> threads;
+  std::error_code ec;
+  const std::filesystem::path task = "/proc/" + std::to_string(pid) + "/task";
+  for (const auto& entry : std::filesystem::directory_iterator(task, ec)) {
+    ThreadSched t;
+    t.tid = static_cast<pid_t>(std::stol(entry.path().filename().string()));
+    std::ifstream comm(entry.path() / "comm");
+    std::getline(comm, t.name);
+    std::ifstream stat_file(entry.path() / "stat");
+    std::string stat((std::istreambuf_iterator<char>(stat_file)), {});
+    // Fields after the ")" closing the name start at field 3; rt_priority is 40, policy 41.
+    const size_t close = stat.rfind(')');
+    if (t.name.empty() || close == std::string::npos) continue;
+    std::istringstream fields(stat.substr(close + 2));
+    std::string field;
+    for (int i = 3; i <= 41 && fields >> field; ++i) {
+      if (i == 40) t.rt_priority = std::stoi(field);
+      if (i == 41) t.policy = std::stoi(field);
+    }
+    threads.push_back(t);
+  }
+  return threads;
 }
 
 class DaemonProcess : public ::testing::Test {
@@ -394,6 +431,96 @@ TEST_F(DaemonProcess, HonoursLcmDefaultUrlAndPrintsItsVersion) {
   std::string version;
   std::getline(in, version);
   EXPECT_EQ(version, std::string("clutterseg ") + kVersion);
+}
+
+TEST_F(DaemonProcess, RealtimePriorityPutsTheLanesBelowTheCapturePath) {
+  const auto dir = testing::ScratchDir("daemon_process_realtime");
+  const auto log = dir / "out.lcmlog";
+  testutil::Child child = testutil::Spawn(
+      {CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", "realtime", "--loop", "--threads",
+       "1", "--set", "processing.realtime_priority=5", "--png-dir", (dir / "png").string(),
+       "--lcm-url", "file://" + log.string() + "?mode=w"});
+  ASSERT_GT(child.pid, 0);
+  // Started once frames reach the log: every thread is running by then.
+  std::vector<ThreadSched> threads;
+  for (int i = 0; i < 1000; ++i) {
+    std::error_code ec;
+    if (std::filesystem::file_size(log, ec) > 100000 && !ec) {
+      threads = ProcessThreads(child.pid);
+      break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(kill(child.pid, SIGTERM), 0);
+  std::string err;
+  ASSERT_EQ(testutil::Wait(&child, seconds(30), &err), 0) << err;
+  ASSERT_FALSE(threads.empty()) << "no frame reached the log: " << err;
+  std::map<std::string, std::vector<ThreadSched>> by_name;
+  for (const auto& t : threads) by_name[t.name].push_back(t);
+  for (const char* name :
+       {"cs-lane0", "cs-capture", "cs-publish", "cs-dispatch", "cs-overlay", "cs-signals"}) {
+    ASSERT_EQ(by_name[name].size(), 1u) << name;
+  }
+  const auto sched = [&](const char* name) { return by_name[name][0]; };
+  if (err.find("running in the normal scheduling class") != std::string::npos) {
+    // A kernel or container that refuses SCHED_FIFO even to this process: it says so (checked
+    // where it is certain to be refused, below) and every thread runs in the normal class.
+    for (const auto& t : threads) EXPECT_EQ(t.policy, 0) << t.name;
+    return;
+  }
+  EXPECT_NE(err.find("segmentation at priority 5, capture and publishing at 6"), std::string::npos)
+      << err;
+  for (const char* lane : {"cs-lane0", "cs-lane1"}) {
+    EXPECT_EQ(sched(lane).policy, SCHED_FIFO) << lane;
+    EXPECT_EQ(sched(lane).rt_priority, 5) << lane;
+  }
+  for (const char* io : {"cs-capture", "cs-publish", "cs-dispatch", "cs-status"}) {
+    EXPECT_EQ(sched(io).policy, SCHED_FIFO) << io;
+    EXPECT_EQ(sched(io).rt_priority, 6) << io;
+  }
+  // The overlay PNGs at nice 19, the signal thread and the main thread in the normal class.
+  EXPECT_EQ(sched("cs-overlay").policy, SCHED_OTHER);
+  EXPECT_EQ(sched("cs-signals").policy, SCHED_OTHER);
+  for (const auto& t : threads) {
+    if (t.tid == child.pid) {
+      EXPECT_EQ(t.policy, SCHED_OTHER) << "the main thread";
+    }
+  }
+}
+
+TEST_F(DaemonProcess, RealtimeRefusedRunsInTheNormalClassAndSaysWhy) {
+  // An unprivileged user with RLIMIT_RTPRIO 0 (no systemd LimitRTPRIO=): the kernel refuses.
+  if (geteuid() != 0 || access("/usr/bin/setpriv", X_OK) != 0 ||
+      access("/usr/bin/prlimit", X_OK) != 0) {
+    GTEST_SKIP() << "needs root, setpriv and prlimit (util-linux) to run the daemon unprivileged";
+  }
+  char tmpl[] = "/tmp/clutterseg_rt_XXXXXX";
+  ASSERT_NE(mkdtemp(tmpl), nullptr);
+  const std::filesystem::path dir = tmpl;
+  std::filesystem::copy_file(oni_path_, dir / "in.oni");
+  ASSERT_EQ(chmod(dir.c_str(), 0777), 0);
+  ASSERT_EQ(chmod((dir / "in.oni").c_str(), 0644), 0);
+  const auto log = dir / "out.lcmlog";
+  std::string err;
+  const int rc = testutil::Run(
+      {"/usr/bin/prlimit", "--rtprio=0:0", "--", "/usr/bin/setpriv", "--reuid=65534",
+       "--regid=65534", "--clear-groups", "--inh-caps=-all", CLUTTERSEG_DAEMON_EXE, "--source",
+       (dir / "in.oni").string(), "--speed", "max", "--set", "processing.realtime_priority=5",
+       "--lcm-url", "file://" + log.string() + "?mode=w"},
+      std::chrono::minutes(2), &err);
+  EXPECT_EQ(rc, 0) << err;
+  EXPECT_NE(err.find("processing.realtime_priority = 5: cannot enter SCHED_FIFO at priority 5: "
+                     "Operation not permitted (needs CAP_SYS_NICE or RLIMIT_RTPRIO >= 5"),
+            std::string::npos)
+      << err;
+  EXPECT_NE(err.find("running in the normal scheduling class"), std::string::npos) << err;
+  int objects = 0;
+  for (const auto& ev : testutil::ReadLcmLog(log.string())) {
+    objects += ev.channel == "CLUTTERSEG_OBJECTS" ? 1 : 0;
+  }
+  EXPECT_EQ(objects, kFrames);
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
 }
 
 }  // namespace

@@ -164,6 +164,9 @@ printf 'processing:\n  pipeline_depth: 3\n' > "$work/cell_left.yaml"
 "$p/bin/clutterseg" $args --print-config > "$work/cell_left.txt" || fail "template instance --print-config"
 grep -q '^camera_name: cell_left$' "$work/cell_left.txt" || fail "template instance camera_name"
 grep -q '^  pipeline_depth: 3$' "$work/cell_left.txt" || fail "template instance: NAME.yaml not applied"
+grep -q '^  realtime_priority: 10$' "$work/cell_left.txt" || fail "template instance: realtime_priority"
+grep -q '^LimitRTPRIO=11$' "$template" || fail "template unit: LimitRTPRIO"
+grep -q '^RestrictRealtime=yes$' "$unit" || fail "unit: RestrictRealtime"
 if command -v systemd-analyze > /dev/null; then
   for u in "$unit" "$template"; do
     name=$(basename "$u")

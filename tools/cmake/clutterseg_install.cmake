@@ -100,6 +100,7 @@ install(FILES "${PROJECT_SOURCE_DIR}/config/clutterseg.yaml" "${PROJECT_SOURCE_D
 # One camera: clutterseg.service reads clutterseg.yaml.
 set(CLUTTERSEG_UNIT_DESCRIPTION "clutterseg RGB-D tabletop segmentation daemon (LCM publisher)")
 set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/clutterseg.yaml")
+set(CLUTTERSEG_UNIT_REALTIME "RestrictRealtime=yes")
 string(JOIN "\n" CLUTTERSEG_UNIT_USAGE
        "# This is clutterseg.service. The configuration is"
        "# ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/clutterseg.yaml. Enable with"
@@ -111,7 +112,15 @@ configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
 # the file names another camera_name. The --default values are the settings measured for
 # three cameras on a 2-core host (docs/daemon.md); NAME.yaml overrides any of them.
 set(CLUTTERSEG_UNIT_DESCRIPTION "clutterseg segmentation daemon of camera %i (LCM publisher)")
-set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/%i.yaml --default camera_name=%i --default processing.threads=1")
+set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/%i.yaml --default camera_name=%i --default processing.threads=1 --default processing.realtime_priority=10")
+# processing.realtime_priority 10: the lanes at SCHED_FIFO 10, the capture path at 11.
+string(JOIN "\n" CLUTTERSEG_UNIT_REALTIME
+       "# Real-time scheduling (processing.realtime_priority, default 10 here): the lanes at"
+       "# SCHED_FIFO 10, the capture path and publisher at 11. The kernel keeps 5 % of each"
+       "# second for the normal class (kernel.sched_rt_runtime_us). Set"
+       "# processing.realtime_priority: 0 in NAME.yaml where other real-time work shares the host."
+       "LimitRTPRIO=11"
+       "RestrictRealtime=no")
 string(JOIN "\n" CLUTTERSEG_UNIT_USAGE
        "# This is the template clutterseg@.service: instance NAME reads"
        "# ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/NAME.yaml (give each its camera.serial)."
