@@ -46,6 +46,14 @@ struct Pose {
     Rotate(p, out);
     for (int i = 0; i < 3; ++i) out[i] += t[i];
   }
+  // Writes the pose as an extrinsics JSON file of parent frame base_link.
+  void WriteJson(const std::string& path) const {
+    std::ofstream f(path);
+    f.precision(10);
+    f << R"({"parent_frame": "base_link", "translation": [)" << t[0] << ", " << t[1] << ", " << t[2]
+      << R"(], "rotation_xyzw": [)" << q[0] << ", " << q[1] << ", " << q[2] << ", " << q[3]
+      << "]}\n";
+  }
 };
 
 template <typename T>
@@ -120,13 +128,7 @@ class DaemonFrame : public ::testing::Test {
 TEST_F(DaemonFrame, ExtrinsicsPutEveryGeometricFieldInTheParentFrame) {
   const Pose pose;
   const std::string extrinsics = (dir_ / "hand_eye.json").string();
-  {
-    std::ofstream f(extrinsics);
-    f.precision(10);
-    f << R"({"parent_frame": "base_link", "translation": [)" << pose.t[0] << ", " << pose.t[1]
-      << ", " << pose.t[2] << R"(], "rotation_xyzw": [)" << pose.q[0] << ", " << pose.q[1] << ", "
-      << pose.q[2] << ", " << pose.q[3] << "]}\n";
-  }
+  pose.WriteJson(extrinsics);
   const std::string camera_log = (dir_ / "camera.lcmlog").string();
   const std::string base_log = (dir_ / "base.lcmlog").string();
   std::string err;
@@ -295,13 +297,7 @@ bool WaitForText(testutil::Child* child, const std::string& text, std::string* e
 TEST_F(DaemonFrame, AReloadMovesTheObjectsToTheNewPoseAndABadFileKeepsTheOld) {
   const Pose pose;
   const std::string good = (dir_ / "reload_hand_eye.json").string();
-  {
-    std::ofstream f(good);
-    f.precision(10);
-    f << R"({"parent_frame": "base_link", "translation": [)" << pose.t[0] << ", " << pose.t[1]
-      << ", " << pose.t[2] << R"(], "rotation_xyzw": [)" << pose.q[0] << ", " << pose.q[1] << ", "
-      << pose.q[2] << ", " << pose.q[3] << "]}\n";
-  }
+  pose.WriteJson(good);
   const std::string bad = (dir_ / "reload_bad.json").string();
   std::ofstream(bad) << R"({"parent_frame": "base_link", "translation": [0, 0, 0]})"
                      << "\n";
