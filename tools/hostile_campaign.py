@@ -413,6 +413,8 @@ def daemon_cases(c: Campaign):
            "--print-config"], 2, ["segmenter.points.max_depth_m"])
     c.case("daemon.default.control-character-name", D, ["--default", "camera_name=arm\x01left",
            "--print-config"], 2, ["camera_name", "control character"])
+    c.case("daemon.default.realtime-99", D, ["--default", "processing.realtime_priority=99",
+           "--print-config"], 2, ["processing.realtime_priority", "99"])
     c.case("daemon.default.empty-name", D, ["--default", "camera_name=", "--print-config"], 2,
            ["camera_name"])
     # configuration files
@@ -615,6 +617,28 @@ def daemon_cases(c: Campaign):
         return elapsed >= 1.5
     c.case("daemon.sighup.during-start-up", D, ["--source", room, "--speed", "realtime",
            "--loop", "--lcm-url", url("h2.lcmlog")], 0, log=c.p("h2.lcmlog"), stop=hup_early)
+    # reload: an extrinsics file that turned bad is named and the pose in use is kept
+    c.write("pose.json", '{"parent_frame": "base_link", "translation": [0.4, 0, 0.8], '
+            '"rotation_xyzw": [0, 0, 0, 1]}')
+    pose_cfg = c.write("pose.yaml", "camera:\n  extrinsics_file: " + c.p("pose.json") + "\n")
+
+    def hup_bad_pose_then_term(proc, elapsed):
+        if elapsed >= 1.0 and not getattr(proc, "hupped", False):
+            c.write("pose.json", '{"parent_frame": "base_link", "translation": [0.4, 0, 0.8], '
+                    '"rotation_xyzw": [0, 0, 0, 2]}')
+            os.kill(proc.pid, signal.SIGHUP)
+            proc.hupped = True
+        return elapsed >= 2.0
+    c.case("daemon.sighup.bad-extrinsics-keeps-the-pose", D, ["--config", pose_cfg, "--source",
+           room, "--speed", "realtime", "--loop", "--lcm-url", url("h3.lcmlog")], 0,
+           ["reload failed", "pose.json", "quaternion"], log=c.p("h3.lcmlog"),
+           stop=hup_bad_pose_then_term, check=frame_id_is("base_link"))
+    # SCHED_FIFO (the template unit's setting) under load, with overlays: the stop still
+    # ends the run at once and the normal-class overlay writer does not hold it back
+    c.case("daemon.sigterm.sched-fifo-overlays-load", D, ["--source", room, "--speed",
+           "realtime", "--loop", "--set", "processing.realtime_priority=10", "--png-dir",
+           c.p("overlays_fifo"), "--lcm-url", url("t9.lcmlog")], {0, 5}, log=c.p("t9.lcmlog"),
+           stop=after_events(c.p("t9.lcmlog"), 40), load=True)
     c.case("daemon.sighup.bad-file-then-sigterm", D, ["--config", reload_cfg, "--source", room,
            "--speed", "realtime", "--loop", "--lcm-url", url("h1.lcmlog")], 0,
            ["reload.yaml", "max_planes"], log=c.p("h1.lcmlog"), stop=hup_then_term)
