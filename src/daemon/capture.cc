@@ -9,6 +9,7 @@
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/core/text_and_color.h"
 #include "clutterseg/daemon/log.h"
+#include "clutterseg/daemon/realtime.h"
 
 namespace clutterseg::daemon {
 
@@ -189,6 +190,7 @@ void Capture::Loop() {
             running = false;
           } else if (params_.loop) {
             source_->Close();
+            const ScopedNormalClass normal;  // the driver's threads never real-time
             source_->Open();
             pace_base = false;
             last_frame = Clock::now();
@@ -260,7 +262,10 @@ void Capture::Reconnect() {
   while (!SleepUnlessStopped(backoff)) {
     reconnects_.fetch_add(1);
     try {
-      source_->Open();
+      {
+        const ScopedNormalClass normal;  // the driver's threads never real-time
+        source_->Open();
+      }
       SetState(DeviceState::kStreaming);
       Log(LogLevel::kInfo, "reconnected: " + source_->Describe());
       return;

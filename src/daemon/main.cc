@@ -279,9 +279,10 @@ int Run(int argc, char** argv) {
   DaemonStats stats;
   SystemdNotifier notifier;
   {
-    // processing.realtime_priority: the lanes (started by the Daemon's constructor) inherit P,
-    // the source's driver threads, capture, dispatch and publisher (started by Open and Start)
-    // P + 1; this thread returns to the normal class once they run.
+    // processing.realtime_priority: the lanes (started by the Daemon's constructor) inherit P;
+    // capture, dispatch, publisher and status (started by Start) P + 1. The source's own
+    // threads (started by Open, and by a reopen on the capture thread: ScopedNormalClass) and
+    // this thread stay in the normal class.
     const int rt = cfg.realtime.priority;
     bool realtime = rt > 0;
     if (std::string problem; realtime && !SetThreadRealtime(rt, &problem)) {
@@ -296,10 +297,12 @@ int Run(int argc, char** argv) {
       Log(LogLevel::kError, std::string("configuration: ") + e.what());
       return kExitUsage;
     }
-    if (std::string problem; realtime && !SetThreadRealtime(rt + 1, &problem)) {
-      Log(LogLevel::kWarn, "processing.realtime_priority = " + std::to_string(rt) + ": " + problem +
-                               "; the capture path runs at the lanes' priority");
-    }
+    const auto back_to_normal = [realtime] {
+      if (std::string problem; realtime && !SetThreadRealtime(0, &problem)) {
+        Log(LogLevel::kWarn, "cannot return the main thread to the normal class: " + problem);
+      }
+    };
+    back_to_normal();
     try {
       daemon->Open();
     } catch (const SourceOpenError& e) {
@@ -324,18 +327,21 @@ int Run(int argc, char** argv) {
     // watcher ends the process at once.
     Daemon* running = daemon.get();
     signals->Attach([running] { running->RequestStop(); }, [&cl, running] { Reload(cl, running); });
+    if (std::string problem; realtime && !SetThreadRealtime(rt + 1, &problem)) {
+      Log(LogLevel::kWarn, "processing.realtime_priority = " + std::to_string(rt) + ": " + problem +
+                               "; the capture path runs in the normal class");
+    }
     try {
       daemon->Start();
     } catch (const std::invalid_argument& e) {  // e.g. output.png_dir cannot be created
+      back_to_normal();
       signals->Detach();
       Log(LogLevel::kError, std::string("configuration: ") + e.what());
       daemon.reset();
       ShutdownSourceDrivers();
       return kExitUsage;
     }
-    if (std::string problem; realtime && !SetThreadRealtime(0, &problem)) {
-      Log(LogLevel::kWarn, "cannot return the main thread to the normal class: " + problem);
-    }
+    back_to_normal();
     if (realtime) {
       Log(LogLevel::kInfo, "real-time scheduling: SCHED_FIFO, segmentation at priority " +
                                std::to_string(rt) + ", capture and publishing at " +

@@ -39,4 +39,20 @@ bool ThreadIsRealtime() {
   return policy == SCHED_FIFO || policy == SCHED_RR;
 }
 
+ScopedNormalClass::ScopedNormalClass() {
+  sched_param param{};
+  if (pthread_getschedparam(pthread_self(), &policy_, &param) != 0) return;
+  if (policy_ != SCHED_FIFO && policy_ != SCHED_RR) return;
+  priority_ = param.sched_priority;
+  sched_param normal{};
+  restore_ = pthread_setschedparam(pthread_self(), SCHED_OTHER, &normal) == 0;
+}
+
+ScopedNormalClass::~ScopedNormalClass() {
+  if (!restore_) return;
+  sched_param param{};
+  param.sched_priority = priority_;
+  pthread_setschedparam(pthread_self(), policy_, &param);  // the priority it had: permitted
+}
+
 }  // namespace clutterseg::daemon

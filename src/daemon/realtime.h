@@ -35,4 +35,23 @@ bool SetThreadRealtime(int priority, std::string* problem);
 /// True when the calling thread runs in a real-time class (SCHED_FIFO or SCHED_RR).
 bool ThreadIsRealtime();
 
+/// Puts the calling thread in the normal class for the scope (when it is in a real-time
+/// class) and restores its class and priority at the end. Wraps the calls that open a source:
+/// the threads a driver starts inherit the class of the thread that starts them, and a
+/// driver's thread that busy-waits (OniFile's player does at the end of a recording) must never
+/// run in a real-time class, where it would keep every thread of its priority off that core.
+/// Thread-safety: affects only the calling thread.
+class ScopedNormalClass {
+ public:
+  ScopedNormalClass();
+  ~ScopedNormalClass();
+  ScopedNormalClass(const ScopedNormalClass&) = delete;
+  ScopedNormalClass& operator=(const ScopedNormalClass&) = delete;
+
+ private:
+  int policy_{0};
+  int priority_{0};
+  bool restore_{false};
+};
+
 }  // namespace clutterseg::daemon

@@ -478,13 +478,32 @@ TEST_F(DaemonProcess, RealtimePriorityPutsTheLanesBelowTheCapturePath) {
     EXPECT_EQ(sched(io).policy, SCHED_FIFO) << io;
     EXPECT_EQ(sched(io).rt_priority, 6) << io;
   }
-  // The overlay PNGs at nice 19, the signal thread and the main thread in the normal class.
+  // The overlay PNGs at nice 19, the signal thread, the main thread and the source driver's
+  // own threads (OpenNI2's, unnamed; its player busy-waits at the end of a recording) in the
+  // normal class.
   EXPECT_EQ(sched("cs-overlay").policy, SCHED_OTHER);
   EXPECT_EQ(sched("cs-signals").policy, SCHED_OTHER);
-  for (const auto& t : threads) {
-    if (t.tid == child.pid) {
-      EXPECT_EQ(t.policy, SCHED_OTHER) << "the main thread";
+  ASSERT_GE(by_name["clutterseg"].size(), 2u) << "the main thread and the driver's";
+  for (const auto& t : by_name["clutterseg"]) EXPECT_EQ(t.policy, SCHED_OTHER) << t.tid;
+}
+
+TEST_F(DaemonProcess, RealtimeReplaysEndOnTheirOwnAtTheEndOfTheRecording) {
+  // OniFile's player thread busy-waits once the recording has ended, until its streams stop:
+  // in a real-time class it kept the capture thread, of its priority, off both cores, and the
+  // daemon never saw the end (it ran until killed, 95 % of both cores in the real-time class).
+  for (const char* speed : {"max", "realtime"}) {
+    const auto log = testing::ScratchDir("daemon_process_realtime_end") / "out.lcmlog";
+    std::string err;
+    const int rc = testutil::Run(
+        {CLUTTERSEG_DAEMON_EXE, "--source", oni_path_, "--speed", speed, "--set",
+         "processing.realtime_priority=5", "--lcm-url", "file://" + log.string() + "?mode=w"},
+        std::chrono::seconds(60), &err);
+    EXPECT_EQ(rc, 0) << speed << ": " << err;
+    int objects = 0;
+    for (const auto& ev : testutil::ReadLcmLog(log.string())) {
+      objects += ev.channel == "CLUTTERSEG_OBJECTS" ? 1 : 0;
     }
+    EXPECT_EQ(objects, kFrames) << speed;
   }
 }
 
