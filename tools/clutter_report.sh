@@ -24,16 +24,11 @@ mkdir -p "$out"
 
 summarize() {  # row name, CSV prefix -> one Markdown row
   python3 - "$1" "$2" <<'EOF'
-import csv, re, sys
+import csv, sys
+sys.path.insert(0, 'tools')
+from mosd_categories import category as cat
 name, prefix = sys.argv[1:3]
 def rows(s): return list(csv.DictReader(open(prefix + '.' + s + '.csv')))
-def cat(frame):
-    m = re.match(r'learn(\d+)', frame)
-    if m:
-        k = int(m.group(1))
-        return 'boxes' if k <= 16 else 'stacked' if k <= 24 else 'occluded' if k <= 32 else 'cylindric'
-    k = int(re.match(r'test(\d+)', frame).group(1))
-    return 'mixed' if k == 43 or k % 2 == 0 else 'complex'
 def f(rs):
     n = len(rs)
     return '%.4f / %.4f' % (sum(float(r['wov']) for r in rs) / n, sum(float(r['f1']) for r in rs) / n)

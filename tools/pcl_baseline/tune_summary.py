@@ -10,21 +10,16 @@ Score of a set of frames: mean over frames of (WOv + F1) / 2 (mosd-parts for mOS
 import csv
 import glob
 import os
-import re
 import sys
 
-MOSD = ('boxes', 'stacked', 'occluded', 'cylindric', 'mixed', 'complex')
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), '..'))
+from mosd_categories import CATEGORIES, category  # noqa: E402
+
+MOSD = CATEGORIES
 SYNTH = (('synth7', 'synthetic rooms s7'), ('synth101', 'synthetic rooms s101'),
          ('p2001', 'synthetic piles s2001'), ('p2002', 'synthetic piles s2002'))
 
 
-def category(frame):
-    m = re.match(r'learn(\d+)', frame)
-    if m:
-        k = int(m.group(1))
-        return 'boxes' if k <= 16 else 'stacked' if k <= 24 else 'occluded' if k <= 32 else 'cylindric'
-    k = int(re.match(r'test(\d+)', frame).group(1))
-    return 'mixed' if k == 43 or k % 2 == 0 else 'complex'
 
 
 def rows(out, tag, s):
