@@ -29,6 +29,8 @@ struct Extrinsics {
                       const std::string& parent_field) const;
   /// Divides the quaternion by its norm (call after Problem() returned "").
   void Normalize();
+
+  bool operator==(const Extrinsics&) const = default;
 };
 
 /// A rigid transform in single precision for applying an Extrinsics to many points:

@@ -2,7 +2,6 @@
 
 #include <pthread.h>
 
-#include <algorithm>
 #include <atomic>
 #include <condition_variable>
 #include <cstdio>
@@ -494,12 +493,7 @@ bool Daemon::UpdateExtrinsics(std::optional<core::Extrinsics> extrinsics) {
   std::shared_ptr<const core::Extrinsics> fresh = ToShared(std::move(extrinsics));
   std::lock_guard<std::mutex> lock(impl_->extrinsics_mutex);
   const core::Extrinsics* old = impl_->extrinsics.get();
-  const bool changed =
-      (old == nullptr) != (fresh == nullptr) ||
-      (old != nullptr &&
-       (old->parent_frame != fresh->parent_frame || old->child_frame != fresh->child_frame ||
-        !std::equal(old->translation_m, old->translation_m + 3, fresh->translation_m) ||
-        !std::equal(old->rotation_xyzw, old->rotation_xyzw + 4, fresh->rotation_xyzw)));
+  const bool changed = (old == nullptr) != (fresh == nullptr) || (old != nullptr && *old != *fresh);
   impl_->extrinsics = std::move(fresh);
   return changed;
 }
