@@ -76,4 +76,5 @@ row "normal importance 4" --set supervoxel.normal_importance=4
 row "support: every ring kept (ring_min_cluster_px 0)" --set support.ring_min_cluster_px=0
 row "optional: crease evidence from 25 deg" --set linkage.crease_min_angle_deg=25
 row "optional: colour-gated concavity tolerance 60 deg (off by default)" --set linkage.color_concavity_tolerance_deg=60
+row "optional: container insides joined (0.5, off by default)" --set objects.container_max_axis_offset_rel=0.5
 row "without the colour cut" --set linkage.color_threshold=0

@@ -92,6 +92,11 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_passes),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_max_step_rel),
       CLUTTERSEG_SEGMENTER_KEY(objects, merge_small_groups),
+      CLUTTERSEG_SEGMENTER_KEY(objects, container_max_axis_offset_rel),
+      CLUTTERSEG_SEGMENTER_KEY(objects, container_min_radius_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, container_max_radius_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, container_max_radius_diff_rel),
+      CLUTTERSEG_SEGMENTER_KEY(objects, container_max_fit_rms_rel),
   };
   return kKeys;
 }

@@ -133,6 +133,132 @@ void Refiner::MergeSmallGroups(const supervoxel::Supervoxels& sv) {
   for (const auto& [g, h] : merge_into_) Union(g, h);
 }
 
+void Refiner::MergeContainerInsides(const supervoxel::Supervoxels& sv,
+                                    const graph::PatchFeatures& features,
+                                    const optimize::PlaneLabeling& planes) {
+  const ObjectParams& params = params_;
+  const size_t n = sv.size();
+  // Per group root, sums over its patches (w = points, p = centroid, n = normal): w, w n,
+  // w p, and the upper triangles of w n n^T and w p p^T and all of w n p^T.
+  group_fit_sums_.assign(n, FitSums{});
+  for (size_t i = 0; i < n; ++i) {
+    if (background_[i]) continue;
+    FitSums& a = group_fit_sums_[Find(static_cast<int32_t>(i))];
+    const double w = sv.num_points[i];
+    const core::Vec3f& pf = features.centroid[i];
+    const core::Vec3f& nf = features.normal[i];
+    const double p[3] = {pf.x, pf.y, pf.z};
+    const double nr[3] = {nf.x, nf.y, nf.z};
+    a.w += w;
+    for (int k = 0; k < 3; ++k) {
+      a.n[k] += w * nr[k];
+      a.p[k] += w * p[k];
+      for (int l = 0; l < 3; ++l) {
+        a.nn[k][l] += w * nr[k] * nr[l];
+        a.pp[k][l] += w * p[k] * p[l];
+        a.np[k][l] += w * nr[k] * p[l];
+      }
+    }
+  }
+  // Each group with a support plane below it (the support nearest its centroid on the
+  // camera's side, a table rather than a wall behind it) is fitted with a vertical axis
+  // through c and a radius r: least squares of c - r n = p across the support's normal u
+  // (every vector projected onto the plane normal to u), which holds exactly for the walls of
+  // a cylinder or a sphere. With W = sum w, N, P the projected sums and S_nn, S_pn, S_pp the
+  // sums of the projected products: r = (P . N / W - S_pn) / (S_nn - |N|^2 / W),
+  // c = (P + r N) / W. Normals that barely vary across u (a flat face, a table-like top)
+  // leave r undetermined: such a group is neither.
+  group_fit_.assign(n, ContainerFit{});
+  container_roots_.clear();
+  for (size_t g = 0; g < n; ++g) {
+    const FitSums& a = group_fit_sums_[g];
+    const double w = a.w;
+    if (!(w > 0.0) || group_points_[g] < static_cast<uint64_t>(params.min_object_points)) continue;
+    const double inv = 1.0 / static_cast<double>(group_points_[g]);
+    const core::Vec3f& gc = group_centroid_[g];
+    int32_t support = -1;
+    double support_dist = 0.0;
+    for (size_t p = 0; p < planes.planes.size(); ++p) {
+      if (!support_[p]) continue;
+      const core::Vec3f& nrm = planes.planes[p].normal;
+      const double dist = (nrm.x * gc.x + nrm.y * gc.y + nrm.z * gc.z) * inv + planes.planes[p].d;
+      if (dist > 0.0 && (support < 0 || dist < support_dist)) {
+        support = static_cast<int32_t>(p);
+        support_dist = dist;
+      }
+    }
+    if (support < 0) continue;
+    const core::Vec3f& uf = planes.planes[support].normal;
+    const double u[3] = {uf.x, uf.y, uf.z};
+    auto quad = [&](const double(&m)[3][3]) {  // u^T m u
+      double q = 0.0;
+      for (int k = 0; k < 3; ++k)
+        for (int l = 0; l < 3; ++l) q += u[k] * m[k][l] * u[l];
+      return q;
+    };
+    const double s_nn = a.nn[0][0] + a.nn[1][1] + a.nn[2][2] - quad(a.nn);
+    const double s_pp = a.pp[0][0] + a.pp[1][1] + a.pp[2][2] - quad(a.pp);
+    const double s_pn = a.np[0][0] + a.np[1][1] + a.np[2][2] - quad(a.np);
+    const double nu = a.n[0] * u[0] + a.n[1] * u[1] + a.n[2] * u[2];
+    const double pu = a.p[0] * u[0] + a.p[1] * u[1] + a.p[2] * u[2];
+    double np_[3], pp_[3];
+    for (int k = 0; k < 3; ++k) {
+      np_[k] = a.n[k] - nu * u[k];
+      pp_[k] = a.p[k] - pu * u[k];
+    }
+    const double nn_sq = np_[0] * np_[0] + np_[1] * np_[1] + np_[2] * np_[2];
+    const double spread = s_nn - nn_sq / w;
+    if (!(spread > 0.02 * w)) continue;
+    const double pn = pp_[0] * np_[0] + pp_[1] * np_[1] + pp_[2] * np_[2];
+    const double r = (pn / w - s_pn) / spread;
+    const double ar = std::abs(r);
+    if (ar < params.container_min_radius_m || ar > params.container_max_radius_m) continue;
+    double c[3];
+    for (int k = 0; k < 3; ++k) c[k] = (pp_[k] + r * np_[k]) / w;
+    // Residual: sum w |c - r n - p|^2 over the projected vectors.
+    const double cc = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+    const double cn = c[0] * np_[0] + c[1] * np_[1] + c[2] * np_[2];
+    const double cp = c[0] * pp_[0] + c[1] * pp_[1] + c[2] * pp_[2];
+    const double e = w * cc + r * r * s_nn + s_pp - 2.0 * r * cn - 2.0 * cp + 2.0 * r * s_pn;
+    const double rms = std::sqrt(std::max(0.0, e) / w);
+    if (rms > params.container_max_fit_rms_rel * ar) continue;
+    ContainerFit& f = group_fit_[g];
+    f.center = {c[0], c[1], c[2]};
+    f.radius = r;
+    f.height = pu / w;
+    f.support = support;
+    container_roots_.push_back(static_cast<int32_t>(g));
+  }
+  // Each concave group (r > 0) picks the convex one (r < 0) over the same support whose axis
+  // is nearest its own, relative to the larger radius; decided on the groups before any
+  // merge, then applied.
+  merge_into_.clear();
+  for (const int32_t g : container_roots_) {
+    const ContainerFit& in = group_fit_[g];
+    if (in.radius <= 0.0) continue;
+    int32_t best = -1;
+    double best_rel = params.container_max_axis_offset_rel;
+    for (const int32_t h : container_roots_) {
+      const ContainerFit& out = group_fit_[h];
+      if (out.radius >= 0.0 || out.support != in.support) continue;
+      const double r_in = in.radius, r_out = -out.radius, r_max = std::max(r_in, r_out);
+      if (std::abs(r_in - r_out) > params.container_max_radius_diff_rel * r_max) continue;
+      // The mean heights of the two walls' points lie within a vessel's height, taken as two
+      // radii.
+      if (std::abs(in.height - out.height) > 2.0 * r_max) continue;
+      const double dx = in.center[0] - out.center[0], dy = in.center[1] - out.center[1],
+                   dz = in.center[2] - out.center[2];
+      const double rel = std::sqrt(dx * dx + dy * dy + dz * dz) / r_max;
+      if (rel <= best_rel) {
+        best_rel = rel;
+        best = h;
+      }
+    }
+    if (best >= 0) merge_into_.emplace_back(g, best);
+  }
+  for (const auto& [g, h] : merge_into_) Union(g, h);
+}
+
 Refiner::Refiner(const ObjectParams& params, core::ThreadPool* pool)
     : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
@@ -329,6 +455,10 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   SumGroups(sv, features);
   if (params.merge_small_groups) {
     MergeSmallGroups(sv);
+    SumGroups(sv, features);
+  }
+  if (params.container_max_axis_offset_rel > 0.f) {
+    MergeContainerInsides(sv, features, planes);
     SumGroups(sv, features);
   }
 

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <tuple>
 #include <vector>
@@ -72,6 +73,11 @@ class Refiner {
   void Union(int32_t a, int32_t b);
   void SumGroups(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features);
   void MergeSmallGroups(const supervoxel::Supervoxels& sv);
+  // Joins the concave groups (container insides) to the convex group around the same axis
+  // (ObjectParams::container_max_axis_offset_rel).
+  void MergeContainerInsides(const supervoxel::Supervoxels& sv,
+                             const graph::PatchFeatures& features,
+                             const optimize::PlaneLabeling& planes);
   void ReclaimOrganized(const core::PointCloud& cloud, core::LabelImage* labels);
   void ReclaimUnorganized(const core::PointCloud& cloud, core::LabelImage* labels);
 
@@ -94,6 +100,21 @@ class Refiner {
   std::vector<core::Vec3f> group_centroid_;
   std::vector<uint64_t> pair_keys_;
   std::vector<std::pair<int32_t, int32_t>> merge_into_;
+  // The sums of MergeContainerInsides per group root, and the fit made from them.
+  struct FitSums {
+    double w{0.0};
+    double n[3]{}, p[3]{};
+    double nn[3][3]{}, pp[3][3]{}, np[3][3]{};  // w n n^T, w p p^T, w n p^T
+  };
+  struct ContainerFit {
+    std::array<double, 3> center{};  // on the axis, projected across the support's normal
+    double radius{0.0};              // > 0 concave (an inside), < 0 convex
+    double height{0.0};              // mean of the points along the support's normal
+    int32_t support{-1};
+  };
+  std::vector<FitSums> group_fit_sums_;
+  std::vector<ContainerFit> group_fit_;
+  std::vector<int32_t> container_roots_;
   std::vector<uint32_t> group_first_;
   std::vector<std::pair<uint32_t, size_t>> group_order_;
   std::vector<uint32_t> group_label_;

@@ -18,6 +18,12 @@ void ObjectParams::ValidateOrThrow() const {
   check.InRange("support_release_min_height_m", support_release_min_height_m, 0.f, 10.f, "m");
   check.InRange("support_reclaim_passes", support_reclaim_passes, 0, 1000);
   check.InRange("support_reclaim_max_step_rel", support_reclaim_max_step_rel, 0.f, 10.f);
+  check.InRange("container_max_axis_offset_rel", container_max_axis_offset_rel, 0.f, 10.f);
+  check.InRange("container_min_radius_m", container_min_radius_m, 0.f, 10.f, "m");
+  check.InRange("container_max_radius_m", container_max_radius_m, container_min_radius_m, 10.f,
+                "m");
+  check.InRange("container_max_radius_diff_rel", container_max_radius_diff_rel, 0.f, 10.f);
+  check.InRange("container_max_fit_rms_rel", container_max_fit_rms_rel, 0.f, 100.f);
 }
 
 void SegmenterParams::ValidateOrThrow() const {

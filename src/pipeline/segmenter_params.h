@@ -58,6 +58,26 @@ struct ObjectParams {
   /// most supervoxel adjacencies with (ties: the larger group) instead of being dropped; an
   /// isolated small group is still dropped.
   bool merge_small_groups{true};
+  /// Container insides join their outside (0 = off). Each group's patches are fitted with the
+  /// centre c and radius r that best satisfy c = p + r n over its patch centroids p and
+  /// normals n (normals towards the camera): r > 0 for a surface seen from its concave side
+  /// (the inside of a cup or bowl), r < 0 for a convex one. A concave group joins the convex
+  /// group whose centre lies within this share of the larger radius of its own, measured
+  /// across the largest support plane's normal (the two walls of one vessel share its axis),
+  /// when both radii lie within [container_min_radius_m, container_max_radius_m], differ by
+  /// at most container_max_radius_diff_rel of the larger, and the centres lie within two
+  /// radii of each other along the normal. Up is the normal of the support plane nearest the
+  /// inside on the camera's side; without one nothing joins. The rim between the two walls is
+  /// thin and seen edge-on, so their supervoxels are often not adjacent at all, and mOSD's
+  /// part labels count the inside as a part of its own (docs/method.md section 7).
+  float container_max_axis_offset_rel{0.0f};
+  float container_min_radius_m{0.01f};        ///< metres; see container_max_axis_offset_rel
+  float container_max_radius_m{0.2f};         ///< metres; see container_max_axis_offset_rel
+  float container_max_radius_diff_rel{0.5f};  ///< dimensionless; see container_max_axis_offset_rel
+  /// A group is fitted only when its RMS residual across the normal is at most this share of
+  /// its radius (a body of revolution about a vertical axis); see
+  /// container_max_axis_offset_rel.
+  float container_max_fit_rms_rel{1.0f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.objects.<field>`) and value.
   void ValidateOrThrow() const;

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""The adoption protocol of docs/results.md ("Protocol: how a default is chosen") for a set of
+candidate configurations, scored on every split in one run.
+
+Splits: the six mOSD categories (boxes, stacked, occluded, cylindric from mosd-learn; mixed and
+complex from mosd-clutter), scored with --gt-convention (mosd-parts, the primary score, or
+mosd-objects, whole objects); synthetic piles of 10-20 objects (clutterseg-synth --count 15
+--objects 10:20) of the tuning seeds 2101 and 2102 and the held-out seeds 2001 and 2002; the
+synthetic rooms of seeds 7 and 101 (reported, not used for a choice).
+
+For every held-out split the candidate with the best mean WOv over the other mOSD categories
+and the tuning piles is chosen (ties, to four decimals: the first candidate, the reference)
+and scored on the split; a candidate is adopted only when no split loses more than 0.002 WOv
+against the reference and the mean gains.
+
+Usage:
+  tools/split_report.py [--build build/release] [--out out/splits]
+      [--gt-convention mosd-parts] NAME='OPTIONS' [NAME='OPTIONS' ...]
+The first NAME is the reference (usually 'defaults='); OPTIONS are clutterseg-segment options,
+e.g. off= on="--set objects.container_max_axis_offset_rel=0.5". Needs the real sets
+(tools/data_root.sh); synthetic sets are generated into OUT once. Per-frame CSVs stay in OUT.
+"""
+import argparse
+import csv
+import os
+import shlex
+import subprocess
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from mosd_categories import category  # noqa: E402
+
+CATEGORIES = ("boxes", "stacked", "occluded", "cylindric", "mixed", "complex")
+TUNING_PILES = ("piles2101", "piles2102")
+HELD_OUT_PILES = ("piles2001", "piles2002")
+ROOMS = ("rooms7", "rooms101")
+
+
+def run(cmd):
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+
+
+def synthetic_sets(build, out):
+    synth = os.path.join(build, "tools", "clutterseg-synth")
+    sets = {}
+    for name in TUNING_PILES + HELD_OUT_PILES:
+        d = os.path.join(out, name)
+        if not os.path.isdir(d):
+            run([synth, "--out", d, "--count", "15", "--seed", name[5:], "--objects", "10:20"])
+        sets[name] = d
+    for name, count in (("rooms7", "30"), ("rooms101", "20")):
+        d = os.path.join(out, name)
+        if not os.path.isdir(d):
+            run([synth, "--out", d, "--count", count, "--seed", name[5:]])
+        sets[name] = d
+    return sets
+
+
+def mean(rows, key):
+    return sum(float(r[key]) for r in rows) / len(rows)
+
+
+def score(build, out, data, sets, convention, tag, options):
+    seg = os.path.join(build, "tools", "clutterseg-segment")
+    ev = os.path.join(build, "tools", "clutterseg-eval")
+    rows = {}
+    inputs = [("learn", os.path.join(data, "mosd-learn"), convention),
+              ("clutter", os.path.join(data, "mosd-clutter"), convention)]
+    inputs += [(name, d, "plain") for name, d in sorted(sets.items())]
+    for name, src, conv in inputs:
+        csv_path = os.path.join(out, "%s.%s.%s.csv" % (tag, conv, name))
+        if not os.path.isfile(csv_path):
+            dst = os.path.join(out, "seg")
+            subprocess.run(["rm", "-rf", dst], check=True)
+            run([seg, src, dst, "-q", "--force"] + options)
+            run([ev, src, dst, "--gt-convention", conv, "-q", "--csv", csv_path])
+            subprocess.run(["rm", "-rf", dst], check=True)
+        with open(csv_path) as f:
+            frames = list(csv.DictReader(f))
+        if name in ("learn", "clutter"):
+            for c in CATEGORIES:
+                picked = [r for r in frames if category(r["frame"]) == c]
+                if picked:
+                    rows[c] = picked
+        else:
+            rows[name] = frames
+    return {k: (mean(v, "wov"), mean(v, "f1"), sum(int(r["under_segmented"]) for r in v))
+            for k, v in rows.items()}
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--build", default="build/release")
+    ap.add_argument("--out", default="out/splits")
+    ap.add_argument("--gt-convention", default="mosd-parts",
+                    choices=("mosd-parts", "mosd-objects"))
+    ap.add_argument("candidates", nargs="+", help="NAME=OPTIONS; the first is the reference")
+    args = ap.parse_args()
+    data = subprocess.run([os.path.join(os.path.dirname(os.path.abspath(__file__)),
+                                        "data_root.sh")],
+                          check=True, capture_output=True, text=True).stdout.strip()
+    os.makedirs(args.out, exist_ok=True)
+    sets = synthetic_sets(args.build, args.out)
+    cands = []
+    for c in args.candidates:
+        name, _, opts = c.partition("=")
+        tag = "".join(ch if ch.isalnum() else "_" for ch in name)
+        cands.append((name, score(args.build, args.out, data, sets, args.gt_convention, tag,
+                                  shlex.split(opts))))
+    splits = CATEGORIES + TUNING_PILES + HELD_OUT_PILES + ROOMS
+    print("Labels of the mOSD categories: %s\n" % args.gt_convention)
+    print("| configuration | " + " | ".join(splits) + " |")
+    print("|---" * (len(splits) + 1) + "|")
+    for name, s in cands:
+        print("| %s | " % name + " | ".join("%.4f / %.4f (%d)" % s[k] for k in splits) + " |")
+    ref_name, ref = cands[0]
+    print("\nLeave one out (choice on the other mOSD categories and the tuning piles; "
+          "WOv / F1 held out):\n")
+    print("| held out | chosen | held out | %s | change in WOv |" % ref_name)
+    print("|---|---|---|---|---|")
+    changes = []
+    for held in CATEGORIES + HELD_OUT_PILES:
+        train = [c for c in CATEGORIES if c != held] + list(TUNING_PILES)
+        best = max(range(len(cands)), key=lambda i: (
+            round(sum(cands[i][1][k][0] for k in train) / len(train), 4), -i))
+        name, s = cands[best]
+        change = s[held][0] - ref[held][0]
+        changes.append(change)
+        print("| %s | %s | %.4f / %.4f | %.4f / %.4f | %+.4f |" % (
+            held, name, s[held][0], s[held][1], ref[held][0], ref[held][1], change))
+    worst, avg = min(changes), sum(changes) / len(changes)
+    verdict = "adopt" if worst >= -0.002 and avg > 0 else "keep %s" % ref_name
+    print("\nmean change %+.4f, worst split %+.4f: %s" % (avg, worst, verdict))
+
+
+if __name__ == "__main__":
+    main()
