@@ -19,6 +19,19 @@ constexpr size_t kReclaimNeighbors = 8;
 // (supervoxels are compact cells between those).
 constexpr double kPatchAreaFactor = 12.4;
 
+// Calls f(first, second, count) for each run of equal keys of `sorted_keys`, keys being pairs
+// (first << 32 | second) sorted ascending: each pair once, with how often it occurs.
+template <class F>
+void ForEachPairRun(const std::vector<uint64_t>& sorted_keys, F&& f) {
+  for (size_t a = 0; a < sorted_keys.size();) {
+    size_t b = a;
+    while (b < sorted_keys.size() && sorted_keys[b] == sorted_keys[a]) ++b;
+    f(static_cast<int32_t>(sorted_keys[a] >> 32),
+      static_cast<int32_t>(sorted_keys[a] & 0xffffffffu), static_cast<uint32_t>(b - a));
+    a = b;
+  }
+}
+
 }  // namespace
 
 int32_t Refiner::Find(int32_t x) {
@@ -113,12 +126,7 @@ void Refiner::MergeSmallGroups(const supervoxel::Supervoxels& sv) {
   // merges are decided on the groups before any of them, then applied.
   merge_into_.clear();
   uint32_t best_count = 0;
-  for (size_t a = 0; a < pair_keys_.size();) {
-    size_t b = a;
-    while (b < pair_keys_.size() && pair_keys_[b] == pair_keys_[a]) ++b;
-    const int32_t g = static_cast<int32_t>(pair_keys_[a] >> 32);
-    const int32_t h = static_cast<int32_t>(pair_keys_[a] & 0xffffffffu);
-    const uint32_t count = static_cast<uint32_t>(b - a);
+  ForEachPairRun(pair_keys_, [&](int32_t g, int32_t h, uint32_t count) {
     if (merge_into_.empty() || merge_into_.back().first != g) {
       merge_into_.emplace_back(g, h);
       best_count = count;
@@ -128,8 +136,7 @@ void Refiner::MergeSmallGroups(const supervoxel::Supervoxels& sv) {
       merge_into_.back().second = h;
       best_count = count;
     }
-    a = b;
-  }
+  });
   for (const auto& [g, h] : merge_into_) Union(g, h);
 }
 
@@ -441,13 +448,80 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
                           (double{pl.nx} * c.x + double{pl.ny} * c.y + double{pl.nz} * c.z + pl.d);
       group_height_points_[g] += sv.num_points[i];
     }
+    // Enclosed: the low released groups whose piece of the support (the connected support
+    // supervoxels and released-only groups around them) holds at most
+    // support_release_enclosed_max_points points and touches an object: the bottom inside a
+    // pot or a bowl, a few millimetres above the table and walled in by it; the table itself
+    // is one large piece. component_[s]: the piece of support supervoxel s (-1 for objects);
+    // component_object_[c]: the object group piece c shares the most adjacencies with (-1
+    // none); group_encloser_[g]: that group for an enclosed group g, else -1.
+    group_encloser_.assign(n, -1);
+    if (params.support_release_enclosed_max_points > 0) {
+      component_.assign(n, -1);
+      component_points_.clear();
+      component_object_.clear();
+      auto on_support = [&](size_t s) {
+        return background_[s] ||
+               (released_[s] && !group_unreleased_[Find(static_cast<int32_t>(s))]);
+      };
+      pair_keys_.clear();
+      for (size_t seed = 0; seed < n; ++seed) {
+        if (component_[seed] >= 0 || !on_support(seed)) continue;
+        const int32_t c = static_cast<int32_t>(component_points_.size());
+        component_points_.push_back(0);
+        component_object_.push_back(-1);
+        stack_.assign(1, static_cast<uint32_t>(seed));
+        component_[seed] = c;
+        while (!stack_.empty()) {
+          const uint32_t s = stack_.back();
+          stack_.pop_back();
+          component_points_[c] += sv.num_points[s];
+          for (uint32_t k = sv.adjacency_offsets[s]; k < sv.adjacency_offsets[s + 1]; ++k) {
+            const uint32_t t = sv.adjacency[k];
+            if (on_support(t)) {
+              if (component_[t] < 0) {
+                component_[t] = c;
+                stack_.push_back(t);
+              }
+              continue;
+            }
+            pair_keys_.push_back(uint64_t{static_cast<uint32_t>(c)} << 32 |
+                                 static_cast<uint32_t>(Find(static_cast<int32_t>(t))));
+          }
+        }
+      }
+      // The object group each piece shares the most adjacencies with (ties: the lower id).
+      std::sort(pair_keys_.begin(), pair_keys_.end());
+      uint32_t best_count = 0;
+      ForEachPairRun(pair_keys_, [&](int32_t c, int32_t h, uint32_t count) {
+        if (component_object_[c] < 0 || count > best_count) {
+          component_object_[c] = h;
+          best_count = count;
+        }
+      });
+      for (size_t i = 0; i < n; ++i) {
+        if (!released_[i] || group_unreleased_[Find(static_cast<int32_t>(i))]) continue;
+        const int32_t c = component_[i];
+        if (component_object_[c] >= 0 &&
+            component_points_[c] <=
+                static_cast<uint64_t>(params.support_release_enclosed_max_points)) {
+          group_encloser_[Find(static_cast<int32_t>(i))] = component_object_[c];
+        }
+      }
+    }
     for (size_t i = 0; i < n; ++i) {
       if (!released_[i]) continue;
       const int32_t g = Find(static_cast<int32_t>(i));
       if (group_unreleased_[g]) continue;
       if (group_height_[g] < double{params.support_release_min_height_m} *
                                  static_cast<double>(group_height_points_[g])) {
-        background_[i] = 1;
+        if (group_encloser_[g] < 0) {
+          background_[i] = 1;
+        } else if (params.container_max_axis_offset_rel > 0.f) {
+          // With container insides joined, a low enclosed bottom joins the vessel around it
+          // (a higher group, a book lying beside an object, stays an object of its own).
+          Union(static_cast<int32_t>(i), group_encloser_[g]);
+        }
       }
     }
   }

@@ -93,6 +93,11 @@ class Refiner {
   std::vector<uint32_t> sv_first_;
   std::vector<uint32_t> above_count_;
   std::vector<uint8_t> group_unreleased_;
+  std::vector<int32_t> group_encloser_;
+  std::vector<int32_t> component_;          // piece of the support of each supervoxel
+  std::vector<uint64_t> component_points_;  // per piece
+  std::vector<int32_t> component_object_;   // per piece: the one object group it touches
+  std::vector<uint32_t> stack_;
   std::vector<double> group_height_;
   std::vector<uint64_t> group_height_points_;
   std::vector<uint64_t> group_points_;
