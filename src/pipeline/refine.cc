@@ -292,6 +292,7 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
   // A plane found on the pixel grid before the supervoxels starts with the area of the points
   // it took, and is a support whatever remains: its region covered the support area.
   plane_area_.resize(num_planes);
+  sv_area_.assign(n, 0.0);
   for (size_t p = 0; p < num_planes; ++p) plane_area_[p] = planes.planes[p].fixed_area_m2;
   const double pixel_area = 1.0 / (intrinsics.fx * intrinsics.fy);
   for (size_t i = 0; i < n; ++i) {
@@ -299,8 +300,9 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
     if (p < 0) continue;
     if (!organized) {
       const core::Vec3f& l = sv.eigenvalues[i];
-      plane_area_[p] +=
+      sv_area_[i] =
           kPatchAreaFactor * std::sqrt(std::max(0.0, double{l.x}) * std::max(0.0, double{l.y}));
+      plane_area_[p] += sv_area_[i];
       continue;
     }
     const core::Vec3f& c = features.centroid[i];
@@ -308,7 +310,8 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
     const double r = std::sqrt(double(c.x) * c.x + double(c.y) * c.y + double(c.z) * c.z);
     if (!(r > 0.0)) continue;
     const double cos_t = std::max(0.2, std::abs((c.x * nrm.x + c.y * nrm.y + c.z * nrm.z) / r));
-    plane_area_[p] += sv.num_points[i] * double(c.z) * c.z * pixel_area / cos_t;
+    sv_area_[i] = sv.num_points[i] * double(c.z) * c.z * pixel_area / cos_t;
+    plane_area_[p] += sv_area_[i];
   }
   support_.assign(num_planes, 0);
   out_planes->resize(num_planes);
@@ -449,16 +452,16 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
       group_height_points_[g] += sv.num_points[i];
     }
     // Enclosed: the low released groups whose piece of the support (the connected support
-    // supervoxels and released-only groups around them) holds at most
-    // support_release_enclosed_max_points points and touches an object: the bottom inside a
+    // supervoxels and released-only groups around them) covers at most
+    // support_release_enclosed_max_area_m2 and touches an object: the bottom inside a
     // pot or a bowl, a few millimetres above the table and walled in by it; the table itself
     // is one large piece. component_[s]: the piece of support supervoxel s (-1 for objects);
     // component_object_[c]: the object group piece c shares the most adjacencies with (-1
     // none); group_encloser_[g]: that group for an enclosed group g, else -1.
     group_encloser_.assign(n, -1);
-    if (params.support_release_enclosed_max_points > 0) {
+    if (params.support_release_enclosed_max_area_m2 > 0.f) {
       component_.assign(n, -1);
-      component_points_.clear();
+      component_area_.clear();
       component_object_.clear();
       auto on_support = [&](size_t s) {
         return background_[s] ||
@@ -467,15 +470,15 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
       pair_keys_.clear();
       for (size_t seed = 0; seed < n; ++seed) {
         if (component_[seed] >= 0 || !on_support(seed)) continue;
-        const int32_t c = static_cast<int32_t>(component_points_.size());
-        component_points_.push_back(0);
+        const int32_t c = static_cast<int32_t>(component_area_.size());
+        component_area_.push_back(0.0);
         component_object_.push_back(-1);
         stack_.assign(1, static_cast<uint32_t>(seed));
         component_[seed] = c;
         while (!stack_.empty()) {
           const uint32_t s = stack_.back();
           stack_.pop_back();
-          component_points_[c] += sv.num_points[s];
+          component_area_[c] += sv_area_[s];
           for (uint32_t k = sv.adjacency_offsets[s]; k < sv.adjacency_offsets[s + 1]; ++k) {
             const uint32_t t = sv.adjacency[k];
             if (on_support(t)) {
@@ -503,8 +506,7 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
         if (!released_[i] || group_unreleased_[Find(static_cast<int32_t>(i))]) continue;
         const int32_t c = component_[i];
         if (component_object_[c] >= 0 &&
-            component_points_[c] <=
-                static_cast<uint64_t>(params.support_release_enclosed_max_points)) {
+            component_area_[c] <= double{params.support_release_enclosed_max_area_m2}) {
           group_encloser_[Find(static_cast<int32_t>(i))] = component_object_[c];
         }
       }

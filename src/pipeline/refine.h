@@ -94,9 +94,10 @@ class Refiner {
   std::vector<uint32_t> above_count_;
   std::vector<uint8_t> group_unreleased_;
   std::vector<int32_t> group_encloser_;
-  std::vector<int32_t> component_;          // piece of the support of each supervoxel
-  std::vector<uint64_t> component_points_;  // per piece
-  std::vector<int32_t> component_object_;   // per piece: the one object group it touches
+  std::vector<int32_t> component_;         // piece of the support of each supervoxel
+  std::vector<double> component_area_;     // per piece, m^2
+  std::vector<double> sv_area_;            // per supervoxel on a plane, m^2 (as plane_area_)
+  std::vector<int32_t> component_object_;  // per piece: the one object group it touches
   std::vector<uint32_t> stack_;
   std::vector<double> group_height_;
   std::vector<uint64_t> group_height_points_;

@@ -16,8 +16,8 @@ void ObjectParams::ValidateOrThrow() const {
   check.InRange("above_support_distance_m", above_support_distance_m, 1e-6f, 1.f, "m");
   check.InRange("support_release_fraction", support_release_fraction, 0.f, 1.f);
   check.InRange("support_release_min_height_m", support_release_min_height_m, 0.f, 10.f, "m");
-  check.InRange("support_release_enclosed_max_points", support_release_enclosed_max_points, 0,
-                100000000);
+  check.InRange("support_release_enclosed_max_area_m2", support_release_enclosed_max_area_m2, 0.f,
+                1e4f, "m^2");
   check.InRange("support_reclaim_passes", support_reclaim_passes, 0, 1000);
   check.InRange("support_reclaim_max_step_rel", support_reclaim_max_step_rel, 0.f, 10.f);
   check.InRange("container_max_axis_offset_rel", container_max_axis_offset_rel, 0.f, 10.f);

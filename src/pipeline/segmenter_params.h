@@ -47,11 +47,12 @@ struct ObjectParams {
   /// pieces slightly off the fitted plane). 0 = every such group stays.
   float support_release_min_height_m{0.008f};
   /// Such a group stays an object whatever its height when its piece of the support (the
-  /// support supervoxels and released-only groups connected to it) holds at most this many
-  /// points and touches an object: the bottom inside a pot or a bowl, a few millimetres above
-  /// the table and walled in by the vessel (0 = off). With container_max_axis_offset_rel it
-  /// joins the object group it shares the most adjacencies with.
-  int support_release_enclosed_max_points{12000};
+  /// support supervoxels and released-only groups connected to it) covers at most this area,
+  /// m^2 (measured as support_min_area_m2), and touches an object: the bottom inside a pot or a
+  /// bowl, a few millimetres above the table and walled in by the vessel (0 = off). With
+  /// container_max_axis_offset_rel it joins the object group it shares the most adjacencies
+  /// with.
+  float support_release_enclosed_max_area_m2{0.04f};
   /// Points of the remaining support supervoxels that lie above the support take the label of
   /// an adjacent object point, spreading up to this many neighbours into the support (0 =
   /// off): the object side of supervoxels straddling an object's bottom and the table. No

@@ -617,7 +617,7 @@ TEST_F(SegmenterRealData, APotsBottomWalledInByItIsNotTheTable) {
     uint32_t bottom, inside;  // part labels
   };
   SegmenterParams dropped = params_;
-  dropped.objects.support_release_enclosed_max_points = 0;
+  dropped.objects.support_release_enclosed_max_area_m2 = 0.f;
   SegmenterParams joined = params_;
   joined.objects.container_max_axis_offset_rel = 0.5f;
   for (const Pot& pot :
