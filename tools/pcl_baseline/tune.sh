@@ -7,13 +7,14 @@
 #   grid B: voxel 5/7.5/10 mm x seed 20/30/40 mm around the best point of grid A on mOSD
 #           learn, then concavity 15/20/25/30 deg, then normal importance 1/4/8, each around the
 #           best point so far.
-# Every grid point is scored on mosd-learn and mosd-clutter (convention mosd-parts); the score
+# Every grid point is scored on mosd-learn and mosd-clutter (convention mosd-parts, or
+# $GT_CONVENTION: mosd-objects tunes and scores on whole objects); the score
 # is the mean over frames of (WOv + F1) / 2. The best point on mosd-learn and clutterseg's
 # defaults are then scored on every category and on the synthetic sets (rooms seed 7 x30 and
 # seed 101 x20, piles seeds 2001 and 2002 x15 with 10-20 objects, convention plain). Also a
 # leave-one-category-out table: for each mOSD category, PCL's best grid point on the other five
 # categories scored on the held-out one.
-# Usage: tools/pcl_baseline/tune.sh [BUILD_DIR] [OUT_DIR] [stage...]
+# Usage: [GT_CONVENTION=mosd-objects] tools/pcl_baseline/tune.sh [BUILD_DIR] [OUT_DIR] [stage...]
 #        (defaults: build/pcl, out/pcl_tune, stages: a b final report)
 # Resumable: a point whose CSVs exist is not run again. Runs two points at a time (PCL_JOBS).
 set -euo pipefail
@@ -33,8 +34,8 @@ mkdir -p "$out"
 
 set_input() {  # set name -> "input_dir convention"
   case $1 in
-    learn) echo "$data/mosd-learn mosd-parts" ;;
-    clutter) echo "$data/mosd-clutter mosd-parts" ;;
+    learn) echo "$data/mosd-learn ${GT_CONVENTION:-mosd-parts}" ;;
+    clutter) echo "$data/mosd-clutter ${GT_CONVENTION:-mosd-parts}" ;;
     *) echo "$out/$1 plain" ;;
   esac
 }

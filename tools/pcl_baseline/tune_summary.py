@@ -5,7 +5,8 @@
   tune_summary.py OUT_DIR options TAG     clutterseg-pcl-baseline options of a tag
   tune_summary.py OUT_DIR report          grid, per-category and leave-one-category-out tables
 
-Score of a set of frames: mean over frames of (WOv + F1) / 2 (mosd-parts for mOSD).
+Score of a set of frames: mean over frames of (WOv + F1) / 2 (mosd-parts for mOSD, or the
+convention tune.sh was run with).
 """
 import csv
 import glob
