@@ -24,6 +24,7 @@ import argparse
 import csv
 import os
 import shlex
+import shutil
 import subprocess
 import sys
 
@@ -71,10 +72,10 @@ def score(build, out, data, sets, convention, tag, options):
         csv_path = os.path.join(out, "%s.%s.%s.csv" % (tag, conv, name))
         if not os.path.isfile(csv_path):
             dst = os.path.join(out, "seg")
-            subprocess.run(["rm", "-rf", dst], check=True)
+            shutil.rmtree(dst, ignore_errors=True)
             run([seg, src, dst, "-q", "--force"] + options)
             run([ev, src, dst, "--gt-convention", conv, "-q", "--csv", csv_path])
-            subprocess.run(["rm", "-rf", dst], check=True)
+            shutil.rmtree(dst, ignore_errors=True)
         with open(csv_path) as f:
             frames = list(csv.DictReader(f))
         if name in ("learn", "clutter"):

@@ -146,7 +146,7 @@ void Refiner::MergeContainerInsides(const supervoxel::Supervoxels& sv,
   const ObjectParams& params = params_;
   const size_t n = sv.size();
   // Per group root, sums over its patches (w = points, p = centroid, n = normal): w, w n,
-  // w p, and the upper triangles of w n n^T and w p p^T and all of w n p^T.
+  // w p, w n n^T, w p p^T and w n p^T.
   group_fit_sums_.assign(n, FitSums{});
   for (size_t i = 0; i < n; ++i) {
     if (background_[i]) continue;
