@@ -19,6 +19,7 @@
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/daemon/overlay_writer.h"
 #include "clutterseg/daemon/source_factory.h"
+#include "clutterseg/pipeline/decimation.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/overlay.h"
 #include "clutterseg/pipeline/temporal_filter.h"
@@ -59,7 +60,7 @@ struct Daemon::Impl {
                                    f.objects.capture_to_publish_ms, f.objects.times);
                   }),
         runner(
-            c.segmenter, c.processing,
+            pipeline::ForDecimatedFrames(c.segmenter, c.camera.decimation), c.processing,
             [this](const pipeline::FrameRunner::Lane& lane, uint64_t item) {
               Segment(lane, reinterpret_cast<const core::RgbdFrame*>(item));
             },
@@ -332,9 +333,10 @@ struct Daemon::Impl {
     }
   }
 
-  // Filters the frame's depth in place before it is segmented (a cloud from the source is
-  // segmented as it is).
+  // Decimates (camera.decimation) and filters the frame's depth in place before it is
+  // segmented (a cloud from the source is segmented as it is).
   void FilterDepth(core::RgbdFrame* frame) {
+    pipeline::DecimateFrame(config.camera.decimation, frame);
     {
       std::lock_guard<std::mutex> lock(temporal_params_mutex);
       if (pending_temporal_params) {
@@ -474,7 +476,9 @@ void Daemon::RequestStop() {
 }
 
 void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
-  impl_->runner.UpdateParams(params);  // validates first
+  // camera.decimation is fixed at start; the point counts follow it.
+  impl_->runner.UpdateParams(
+      pipeline::ForDecimatedFrames(params, impl_->config.camera.decimation));  // validates first
   {
     std::lock_guard<std::mutex> lock(impl_->temporal_params_mutex);
     impl_->pending_temporal_params =

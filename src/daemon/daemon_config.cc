@@ -82,6 +82,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
         MakeKey("camera.intrinsics_file", &C::camera, &SourceParams::intrinsics_file),
         MakeKey("camera.depth_scale_mm", &C::camera, &SourceParams::depth_scale_mm),
         MakeKey("camera.extrinsics_file", &C::camera, &SourceParams::extrinsics_file),
+        MakeKey("camera.decimation", &C::camera, &SourceParams::decimation),
         MakeKey("lcm.url", &C::lcm, &LcmPublisherParams::url),
         MakeKey("lcm.objects_channel", &C::lcm, &LcmPublisherParams::objects_channel),
         MakeKey("lcm.labels_channel", &C::lcm, &LcmPublisherParams::labels_channel),

@@ -6,6 +6,7 @@
 #include "clutterseg/config/extrinsics.h"
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/io/extrinsics_json.h"
+#include "clutterseg/pipeline/decimation.h"
 
 namespace clutterseg::daemon {
 
@@ -15,6 +16,7 @@ void SourceParams::ValidateOrThrow() const {
   // checked by drivers::OpenNI2SourceOptions when the source is made.
   check.Require(depth_scale_mm > 0.0 && depth_scale_mm < 1000.0, "depth_scale_mm", depth_scale_mm,
                 "(0, 1000) mm per PNG unit");
+  check.InRange("decimation", decimation, 1, pipeline::kMaxDecimation, "(block edge, pixels)");
 }
 
 std::optional<core::Extrinsics> LoadExtrinsics(const SourceParams& camera) {

@@ -39,6 +39,14 @@ struct SourceParams {
   /// easy_handeye (*.yaml / *.yml, config::ReadExtrinsicsYaml). With it, every geometric field
   /// of objects_t is published in that frame (docs/lcm.md). "" = the camera frame.
   std::string extrinsics_file;
+  /// camera.decimation: each frame's depth and colour are reduced by this factor in each
+  /// direction before anything else (pipeline::DecimateFrame: the median valid depth of each
+  /// block, that pixel's colour, the intrinsics scaled), and segmented and published at that
+  /// size; segmenter.objects.min_object_points is divided by its square
+  /// (pipeline::ForDecimatedFrames). 2 processes a 640x480 camera as 320x240: several cameras
+  /// on one host (docs/daemon.md). Frames that carry their own cloud (PCD sources) are
+  /// segmented as they are. 1 = full resolution, at most pipeline::kMaxDecimation.
+  int decimation{1};
 
   /// @throws std::invalid_argument naming the key (`camera.<field>`) and value.
   void ValidateOrThrow() const;

@@ -284,6 +284,64 @@ TEST_F(DaemonFrame, ABadExtrinsicsFileExitsTwoNamingTheFileAndField) {
   EXPECT_NE(err.find("'transform.rotation' has norm"), std::string::npos) << err;
 }
 
+// camera.decimation = 2 on the real OniFile replay: everything is published at 320x240 with the
+// intrinsics of that image, and the same objects come out where they were at full resolution,
+// each with about a quarter of its points (a few small pieces more); a bad factor exits 2
+// naming the key.
+TEST_F(DaemonFrame, DecimationPublishesTheSameObjectsAtAQuarterOfThePixels) {
+  const std::string full_log = (dir_ / "full.lcmlog").string();
+  const std::string half_log = (dir_ / "half.lcmlog").string();
+  std::string err;
+  ASSERT_EQ(RunDaemon(full_log, {}, &err), kExitOk) << err;
+  ASSERT_EQ(RunDaemon(half_log, {"--set", "camera.decimation=2"}, &err), kExitOk) << err;
+  const auto full = Messages<clutterseg::objects_t>(full_log, "CLUTTERSEG_OBJECTS");
+  const auto half = Messages<clutterseg::objects_t>(half_log, "CLUTTERSEG_OBJECTS");
+  const auto half_labels = Messages<clutterseg::label_image_t>(half_log, "CLUTTERSEG_LABELS");
+  ASSERT_EQ(full.size(), static_cast<size_t>(kFrames));
+  ASSERT_EQ(half.size(), full.size());
+  ASSERT_EQ(half_labels.size(), full.size());
+  int big = 0, matched = 0;
+  for (size_t f = 0; f < full.size(); ++f) {
+    const clutterseg::objects_t& a = full[f];
+    const clutterseg::objects_t& b = half[f];
+    const std::string at = "frame " + std::to_string(f);
+    ASSERT_EQ(a.intrinsics.width, 640) << at;
+    EXPECT_EQ(b.intrinsics.width, 320) << at;
+    EXPECT_EQ(b.intrinsics.height, 240) << at;
+    EXPECT_DOUBLE_EQ(b.intrinsics.fx, a.intrinsics.fx / 2) << at;
+    EXPECT_DOUBLE_EQ(b.intrinsics.fy, a.intrinsics.fy / 2) << at;
+    EXPECT_DOUBLE_EQ(b.intrinsics.cx, (a.intrinsics.cx + 0.5) / 2 - 0.5) << at;
+    EXPECT_EQ(half_labels[f].width, 320) << at;
+    EXPECT_EQ(half_labels[f].height, 240) << at;
+    // Coarser points leave a few more small pieces (1-2 per frame here), never fewer objects.
+    EXPECT_GE(b.num_objects, a.num_objects) << at;
+    EXPECT_LE(b.num_objects, a.num_objects + 2) << at;
+    for (const auto& o : a.objects) {
+      if (o.num_points < 2000) continue;
+      ++big;
+      for (const auto& q : b.objects) {
+        const double d = std::hypot(o.centroid[0] - q.centroid[0], o.centroid[1] - q.centroid[1],
+                                    o.centroid[2] - q.centroid[2]);
+        const double share = static_cast<double>(q.num_points) / o.num_points;
+        if (d < 0.01 && share > 0.2 && share < 0.3) {
+          ++matched;
+          // Its pixels are in the 320x240 image.
+          EXPECT_LE(q.bbox_max_u, 319) << at;
+          EXPECT_LE(q.bbox_max_v, 239) << at;
+          break;
+        }
+      }
+    }
+  }
+  ASSERT_GE(big, kFrames);
+  EXPECT_GE(matched, big * 9 / 10) << matched << " of " << big;
+
+  EXPECT_EQ(
+      RunDaemon((dir_ / "bad_decimation.lcmlog").string(), {"--set", "camera.decimation=5"}, &err),
+      kExitUsage);
+  EXPECT_NE(err.find("camera.decimation"), std::string::npos) << err;
+}
+
 // Waits up to 10 s until the child's stderr holds `text`.
 bool WaitForText(testutil::Child* child, const std::string& text, std::string* err) {
   for (int i = 0; i < 1000; ++i) {
