@@ -32,6 +32,42 @@ void ForEachPairRun(const std::vector<uint64_t>& sorted_keys, F&& f) {
   }
 }
 
+// Vessel rims (Refiner::CutVesselRims).
+constexpr size_t kVesselMinWalls = 5;          // wall patches to fit a circle to
+constexpr double kVesselWallAcross = 0.7;      // a wall's normal across the support's, at least
+constexpr size_t kVesselHypothesisWalls = 48;  // walls paired for circles, at most
+constexpr double kVesselMinPairTurn = 0.25;    // |n_a - n_b|^2 of a pair: 29 degrees apart
+constexpr double kVesselMinTolerance = 0.006;  // metres
+constexpr double kVesselMaxMeanNormal = 0.9;   // the fitting walls' mean normal, at most
+constexpr double kVesselSameSurfaceCos = 0.8;  // a cut continues to normals within 37 degrees
+constexpr double kVesselMinCutPoints = 50.0;   // smaller cuts are left alone
+constexpr uint8_t kRimFits = 1;
+constexpr uint8_t kRimCut = 2;
+
+// Coordinates across a unit normal u: two unit vectors that make (e1, e2, u) right-handed.
+struct AcrossBasis {
+  double e1[3], e2[3];
+  explicit AcrossBasis(const core::Vec3f& uf) {
+    const double u[3] = {uf.x, uf.y, uf.z};
+    // The axis least aligned with u, crossed with it.
+    const int a = std::abs(u[0]) <= std::abs(u[1]) && std::abs(u[0]) <= std::abs(u[2])
+                      ? 0
+                      : (std::abs(u[1]) <= std::abs(u[2]) ? 1 : 2);
+    const double ax[3] = {a == 0 ? 1.0 : 0.0, a == 1 ? 1.0 : 0.0, a == 2 ? 1.0 : 0.0};
+    e1[0] = u[1] * ax[2] - u[2] * ax[1];
+    e1[1] = u[2] * ax[0] - u[0] * ax[2];
+    e1[2] = u[0] * ax[1] - u[1] * ax[0];
+    const double l = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    for (double& v : e1) v /= l;
+    e2[0] = u[1] * e1[2] - u[2] * e1[1];
+    e2[1] = u[2] * e1[0] - u[0] * e1[2];
+    e2[2] = u[0] * e1[1] - u[1] * e1[0];
+  }
+  std::pair<double, double> Across(const core::Vec3f& v) const {
+    return {v.x * e1[0] + v.y * e1[1] + v.z * e1[2], v.x * e2[0] + v.y * e2[1] + v.z * e2[2]};
+  }
+};
+
 }  // namespace
 
 int32_t Refiner::Find(int32_t x) {
@@ -181,19 +217,8 @@ void Refiner::MergeContainerInsides(const supervoxel::Supervoxels& sv,
     const FitSums& a = group_fit_sums_[g];
     const double w = a.w;
     if (!(w > 0.0) || group_points_[g] < static_cast<uint64_t>(params.min_object_points)) continue;
-    const double inv = 1.0 / static_cast<double>(group_points_[g]);
-    const core::Vec3f& gc = group_centroid_[g];
-    int32_t support = -1;
-    double support_dist = 0.0;
-    for (size_t p = 0; p < planes.planes.size(); ++p) {
-      if (!support_[p]) continue;
-      const core::Vec3f& nrm = planes.planes[p].normal;
-      const double dist = (nrm.x * gc.x + nrm.y * gc.y + nrm.z * gc.z) * inv + planes.planes[p].d;
-      if (dist > 0.0 && (support < 0 || dist < support_dist)) {
-        support = static_cast<int32_t>(p);
-        support_dist = dist;
-      }
-    }
+    const int32_t support =
+        SupportBelow(planes, group_centroid_[g], 1.0 / static_cast<double>(group_points_[g]));
     if (support < 0) continue;
     const core::Vec3f& uf = planes.planes[support].normal;
     const double u[3] = {uf.x, uf.y, uf.z};
@@ -264,6 +289,197 @@ void Refiner::MergeContainerInsides(const supervoxel::Supervoxels& sv,
     if (best >= 0) merge_into_.emplace_back(g, best);
   }
   for (const auto& [g, h] : merge_into_) Union(g, h);
+}
+
+int32_t Refiner::SupportBelow(const optimize::PlaneLabeling& planes, const core::Vec3f& sum,
+                              double inv) const {
+  int32_t support = -1;
+  double support_dist = 0.0;
+  for (size_t p = 0; p < planes.planes.size(); ++p) {
+    if (!support_[p]) continue;
+    const core::Vec3f& nrm = planes.planes[p].normal;
+    const double dist = (nrm.x * sum.x + nrm.y * sum.y + nrm.z * sum.z) * inv + planes.planes[p].d;
+    if (dist > 0.0 && (support < 0 || dist < support_dist)) {
+      support = static_cast<int32_t>(p);
+      support_dist = dist;
+    }
+  }
+  return support;
+}
+
+void Refiner::CutVesselRims(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+                            const optimize::PlaneLabeling& planes) {
+  const ObjectParams& params = params_;
+  const size_t n = sv.size();
+  // Members of each group, ordered by group (a counting sort on the roots).
+  rim_root_.assign(n, -1);
+  rim_offsets_.assign(n + 1, 0);
+  for (size_t i = 0; i < n; ++i) {
+    if (background_[i]) continue;
+    rim_root_[i] = Find(static_cast<int32_t>(i));
+    ++rim_offsets_[static_cast<size_t>(rim_root_[i]) + 1];
+  }
+  for (size_t g = 0; g < n; ++g) rim_offsets_[g + 1] += rim_offsets_[g];
+  rim_members_.resize(rim_offsets_[n]);
+  rim_fill_.assign(rim_offsets_.begin(), rim_offsets_.end() - 1);
+  for (size_t i = 0; i < n; ++i) {
+    if (rim_root_[i] >= 0)
+      rim_members_[rim_fill_[static_cast<size_t>(rim_root_[i])]++] = static_cast<uint32_t>(i);
+  }
+  rim_cut_.assign(n, 0);
+  rim_cut_group_.assign(n, 0);
+  bool any = false;
+  for (size_t g = 0; g < n; ++g) {
+    const uint32_t b = rim_offsets_[g], e = rim_offsets_[g + 1];
+    if (e - b < kVesselMinWalls) continue;
+    double w_all = 0.0;
+    core::Vec3f sum{0.f, 0.f, 0.f};
+    for (uint32_t m = b; m < e; ++m) {
+      const uint32_t i = rim_members_[m];
+      const float w = static_cast<float>(sv.num_points[i]);
+      w_all += w;
+      sum.x += w * features.centroid[i].x;
+      sum.y += w * features.centroid[i].y;
+      sum.z += w * features.centroid[i].z;
+    }
+    if (w_all < params.min_object_points) continue;
+    const int32_t support = SupportBelow(planes, sum, 1.0 / w_all);
+    if (support < 0) continue;
+    const AcrossBasis basis(planes.planes[static_cast<size_t>(support)].normal);
+    // Walls: members whose normal lies mostly across the support's normal, as (x, y) and the
+    // unit normal (nx, ny) across it, their points and the member.
+    rim_walls_.clear();
+    double w_wall = 0.0;
+    for (uint32_t m = b; m < e; ++m) {
+      const uint32_t i = rim_members_[m];
+      const auto [nx, ny] = basis.Across(features.normal[i]);
+      const double nl = std::hypot(nx, ny);
+      if (nl < kVesselWallAcross) continue;
+      const auto [x, y] = basis.Across(features.centroid[i]);
+      rim_walls_.push_back({x, y, nx / nl, ny / nl, static_cast<double>(sv.num_points[i]), i});
+      w_wall += sv.num_points[i];
+    }
+    if (rim_walls_.size() < kVesselMinWalls) continue;
+    // Every pair of walls (of at most kVesselHypothesisWalls, evenly spaced) whose normals
+    // differ enough fixes a circle: p_a + r n_a = p_b + r n_b. The circle most walls fit wins.
+    const double min_r = params.container_min_radius_m, max_r = params.container_max_radius_m;
+    const auto tolerance = [&](double r) {
+      return std::max(double{params.vessel_fit_tolerance_rel} * r, kVesselMinTolerance);
+    };
+    const auto fits = [&](const VesselWall& k, double r, double cx, double cy) {
+      const double ex = k.x + r * k.nx - cx, ey = k.y + r * k.ny - cy;
+      const double tol = tolerance(r);
+      return ex * ex + ey * ey <= tol * tol;
+    };
+    const size_t walls = rim_walls_.size();
+    const size_t step = (walls + kVesselHypothesisWalls - 1) / kVesselHypothesisWalls;
+    double best_w = 0.0, best_r = 0.0, best_cx = 0.0, best_cy = 0.0;
+    for (size_t i = 0; i < walls; i += step) {
+      const VesselWall& wa = rim_walls_[i];
+      for (size_t j = i + step; j < walls; j += step) {
+        const VesselWall& wb = rim_walls_[j];
+        const double dx = wb.nx - wa.nx, dy = wb.ny - wa.ny;
+        const double dd = dx * dx + dy * dy;
+        if (dd < kVesselMinPairTurn) continue;
+        const double r = ((wa.x - wb.x) * dx + (wa.y - wb.y) * dy) / dd;
+        if (r < min_r || r > max_r) continue;
+        const double cx = 0.5 * (wa.x + r * wa.nx + wb.x + r * wb.nx);
+        const double cy = 0.5 * (wa.y + r * wa.ny + wb.y + r * wb.ny);
+        double w = 0.0;
+        for (const VesselWall& k : rim_walls_) w += fits(k, r, cx, cy) ? k.w : 0.0;
+        if (w > best_w) {
+          best_w = w;
+          best_r = r;
+          best_cx = cx;
+          best_cy = cy;
+        }
+      }
+    }
+    if (!(best_w >= double{params.vessel_min_inlier_share} * w_wall)) continue;
+    // Least squares of c = p + r n on the fitting walls (as in MergeContainerInsides), which
+    // must face the axis from around it: their mean normal is short.
+    double sw = 0.0, snp = 0.0, N[2] = {0.0, 0.0}, P[2] = {0.0, 0.0};
+    size_t count = 0;
+    for (const VesselWall& k : rim_walls_) {
+      if (!fits(k, best_r, best_cx, best_cy)) continue;
+      ++count;
+      sw += k.w;
+      N[0] += k.w * k.nx;
+      N[1] += k.w * k.ny;
+      P[0] += k.w * k.x;
+      P[1] += k.w * k.y;
+      snp += k.w * (k.nx * k.x + k.ny * k.y);
+    }
+    const double nn = N[0] * N[0] + N[1] * N[1];
+    if (count < kVesselMinWalls || std::sqrt(nn) > kVesselMaxMeanNormal * sw) continue;
+    const double r = ((N[0] * P[0] + N[1] * P[1]) / sw - snp) / (sw - nn / sw);
+    if (r < min_r || r > max_r) continue;
+    const double cx = (P[0] + r * N[0]) / sw, cy = (P[1] + r * N[1]) / sw;
+    for (const VesselWall& k : rim_walls_) {
+      if (fits(k, r, cx, cy)) rim_cut_[k.member] = kRimFits;
+    }
+    // Cut: the members beyond the rim's reach that do not fit, then the members of the same
+    // surface adjacent to them (normals within kVesselSameSurfaceCos) that do not fit.
+    const double reach = r + std::max(double{params.vessel_rim_cut_margin_rel} * r, 0.01);
+    double cut_w = 0.0;
+    stack_.clear();
+    for (uint32_t m = b; m < e; ++m) {
+      const uint32_t i = rim_members_[m];
+      const auto [x, y] = basis.Across(features.centroid[i]);
+      if (rim_cut_[i] == kRimFits || std::hypot(x - cx, y - cy) <= reach) continue;
+      rim_cut_[i] = kRimCut;
+      stack_.push_back(i);
+    }
+    while (!stack_.empty()) {
+      const uint32_t s0 = stack_.back();
+      stack_.pop_back();
+      cut_w += sv.num_points[s0];
+      const core::Vec3f& n0 = features.normal[s0];
+      for (uint32_t k = sv.adjacency_offsets[s0]; k < sv.adjacency_offsets[s0 + 1]; ++k) {
+        const uint32_t t = sv.adjacency[k];
+        if (rim_root_[t] != static_cast<int32_t>(g) || rim_cut_[t] != 0) continue;
+        const core::Vec3f& n1 = features.normal[t];
+        if (n0.x * n1.x + n0.y * n1.y + n0.z * n1.z < kVesselSameSurfaceCos) continue;
+        rim_cut_[t] = kRimCut;
+        stack_.push_back(t);
+      }
+    }
+    const bool cut = cut_w >= kVesselMinCutPoints;
+    for (uint32_t m = b; m < e; ++m) {
+      uint8_t& c = rim_cut_[rim_members_[m]];
+      c = cut && c == kRimCut ? kRimCut : 0;
+    }
+    if (!cut) continue;
+    rim_cut_group_[g] = 1;
+    any = true;
+  }
+  if (!any) return;
+  // Re-form the groups that were cut: the members that stay are one group as before, those
+  // cut off form the pieces they connect into among themselves.
+  for (size_t g = 0; g < n; ++g) {
+    if (!rim_cut_group_[g]) continue;
+    for (uint32_t m = rim_offsets_[g]; m < rim_offsets_[g + 1]; ++m) {
+      parent_[rim_members_[m]] = static_cast<int32_t>(rim_members_[m]);
+    }
+  }
+  for (size_t g = 0; g < n; ++g) {
+    if (!rim_cut_group_[g]) continue;
+    int32_t keep = -1;
+    for (uint32_t m = rim_offsets_[g]; m < rim_offsets_[g + 1]; ++m) {
+      const uint32_t i = rim_members_[m];
+      if (rim_cut_[i] != kRimCut) {
+        if (keep < 0) keep = static_cast<int32_t>(i);
+        Union(keep, static_cast<int32_t>(i));
+        continue;
+      }
+      for (uint32_t k = sv.adjacency_offsets[i]; k < sv.adjacency_offsets[i + 1]; ++k) {
+        const uint32_t t = sv.adjacency[k];
+        if (rim_root_[t] == static_cast<int32_t>(g) && rim_cut_[t] == kRimCut) {
+          Union(static_cast<int32_t>(i), static_cast<int32_t>(t));
+        }
+      }
+    }
+  }
 }
 
 Refiner::Refiner(const ObjectParams& params, core::ThreadPool* pool)
@@ -528,6 +744,8 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
     }
   }
 
+  // A vessel's inside ends at its rim: what continues it beyond is another object.
+  if (params.vessel_rim_cut_margin_rel > 0.f) CutVesselRims(sv, features, planes);
   SumGroups(sv, features);
   if (params.merge_small_groups) {
     MergeSmallGroups(sv);

@@ -73,6 +73,12 @@ class Refiner {
   void Union(int32_t a, int32_t b);
   void SumGroups(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features);
   void MergeSmallGroups(const supervoxel::Supervoxels& sv);
+  // Cuts off what lies beyond a vessel's rim (objects.vessel_rim_cut_margin_rel).
+  void CutVesselRims(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
+                     const optimize::PlaneLabeling& planes);
+  // The support plane nearest below the point sum * inv (on its camera side), -1 for none.
+  int32_t SupportBelow(const optimize::PlaneLabeling& planes, const core::Vec3f& sum,
+                       double inv) const;
   // Joins the concave groups (container insides) to the convex group around the same axis
   // (ObjectParams::container_max_axis_offset_rel).
   void MergeContainerInsides(const supervoxel::Supervoxels& sv,
@@ -121,6 +127,19 @@ class Refiner {
   std::vector<FitSums> group_fit_sums_;
   std::vector<ContainerFit> group_fit_;
   std::vector<int32_t> container_roots_;
+  // CutVesselRims: a wall patch of a group across the support's normal (position x, y, unit
+  // normal nx, ny), its points and its supervoxel.
+  struct VesselWall {
+    double x, y, nx, ny, w;
+    uint32_t member;
+  };
+  std::vector<uint32_t> rim_members_;  // supervoxels ordered by group
+  std::vector<uint32_t> rim_offsets_;  // group g's members: [rim_offsets_[g], [g + 1])
+  std::vector<uint32_t> rim_fill_;
+  std::vector<int32_t> rim_root_;       // per supervoxel, its group before the cut
+  std::vector<uint8_t> rim_cut_;        // per supervoxel: kRimFits, kRimCut or 0
+  std::vector<uint8_t> rim_cut_group_;  // per group root: it was cut
+  std::vector<VesselWall> rim_walls_;
   std::vector<uint32_t> group_first_;
   std::vector<std::pair<uint32_t, size_t>> group_order_;
   std::vector<uint32_t> group_label_;

@@ -21,6 +21,9 @@ void ObjectParams::ValidateOrThrow() const {
   check.InRange("support_reclaim_passes", support_reclaim_passes, 0, 1000);
   check.InRange("support_reclaim_max_step_rel", support_reclaim_max_step_rel, 0.f, 10.f);
   check.InRange("container_max_axis_offset_rel", container_max_axis_offset_rel, 0.f, 10.f);
+  check.InRange("vessel_rim_cut_margin_rel", vessel_rim_cut_margin_rel, 0.f, 10.f);
+  check.InRange("vessel_fit_tolerance_rel", vessel_fit_tolerance_rel, 0.01f, 1.f);
+  check.InRange("vessel_min_inlier_share", vessel_min_inlier_share, 0.f, 1.f);
   check.InRange("container_min_radius_m", container_min_radius_m, 0.f, 10.f, "m");
   check.InRange("container_max_radius_m", container_max_radius_m, container_min_radius_m, 10.f,
                 "m");

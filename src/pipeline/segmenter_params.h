@@ -78,8 +78,30 @@ struct ObjectParams {
   /// thin and seen edge-on, so their supervoxels are often not adjacent at all, and mOSD's
   /// part labels count the inside as a part of its own (docs/method.md section 7).
   float container_max_axis_offset_rel{0.0f};
-  float container_min_radius_m{0.01f};        ///< metres; see container_max_axis_offset_rel
-  float container_max_radius_m{0.2f};         ///< metres; see container_max_axis_offset_rel
+  /// Vessel insides end at their rim (0 = off). Seen from above, the far inside wall of a cup
+  /// or bowl continues smoothly into the surface of whatever touches the vessel behind its
+  /// rim (another vessel's outside, a can, a box's face), with no concave crease to cut. Each
+  /// group standing over a support is searched for the inside of a vessel: a vertical axis c
+  /// and radius r (container_min_radius_m..container_max_radius_m) with c = p + r n, across
+  /// the support's normal, for at least vessel_min_inlier_share of its wall patches' points
+  /// (patches whose normals lie mostly across the normal; from every pair of wall patches, the
+  /// pair whose circle the most walls fit within vessel_fit_tolerance_rel of r), refitted by
+  /// least squares on those walls, which must face the axis from around it. The supervoxels
+  /// of the group farther from the axis than r (1 + this), at least 1 cm more, are cut off
+  /// and become groups of their own (with the supervoxels of the same surface adjacent to
+  /// them that do not fit the circle); the fitting walls never are. Nothing changes for a
+  /// vessel that touches nothing (docs/method.md section 7).
+  float vessel_rim_cut_margin_rel{0.2f};
+  /// A wall patch fits the circle when c - p - r n is at most this share of r (at least
+  /// 6 mm); see vessel_rim_cut_margin_rel.
+  float vessel_fit_tolerance_rel{0.2f};
+  /// Share of a group's wall-patch points that must fit one circle; see
+  /// vessel_rim_cut_margin_rel.
+  float vessel_min_inlier_share{0.4f};
+  /// Radii of vessels, metres; see container_max_axis_offset_rel and
+  /// vessel_rim_cut_margin_rel.
+  float container_min_radius_m{0.01f};
+  float container_max_radius_m{0.2f};         ///< metres; see container_min_radius_m
   float container_max_radius_diff_rel{0.5f};  ///< dimensionless; see container_max_axis_offset_rel
   /// A group is fitted only when its RMS residual across the normal is at most this share of
   /// its radius (a body of revolution about a vertical axis); see
