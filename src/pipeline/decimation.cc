@@ -10,30 +10,84 @@ namespace clutterseg::pipeline {
 
 namespace {
 
-// The index (into the frame) of the pixel of block (bu, bv) whose depth is the lower median
-// of the block's valid depths; -1 when none is valid. Equal depths keep block order.
-inline ptrdiff_t MedianPixel(const core::DepthImage& depth, int factor, int bu, int bv) {
-  std::array<uint16_t, kMaxDecimation * kMaxDecimation> z{};
-  std::array<ptrdiff_t, kMaxDecimation * kMaxDecimation> at{};
-  int n = 0;
-  for (int dv = 0; dv < factor; ++dv) {
-    const ptrdiff_t row = static_cast<ptrdiff_t>(bv * factor + dv) * depth.width;
-    for (int du = 0; du < factor; ++du) {
-      const ptrdiff_t i = row + bu * factor + du;
-      const uint16_t d = depth.data[static_cast<size_t>(i)];
-      if (d == 0) continue;
-      // Insertion: a few values, and stable for equal depths.
-      int k = n++;
-      while (k > 0 && z[k - 1] > d) {
-        z[k] = z[k - 1];
-        at[k] = at[k - 1];
-        --k;
-      }
-      z[k] = d;
-      at[k] = i;
+constexpr uint32_t kMissing = 0xffffffffu;
+
+// A block's pixels as keys (depth << 4 | position in the block), a missing depth as the
+// largest key, so that ordering the keys orders the depths and keeps block order for equal
+// ones. Returns the position of the pixel of lower-median valid depth, -1 when none is valid.
+inline int MedianPosition(uint32_t* keys, int count, int valid) {
+  if (valid == 0) return -1;
+  const int k = (valid - 1) / 2;
+  std::nth_element(keys, keys + k, keys + count);
+  return static_cast<int>(keys[k] & 15u);
+}
+
+// Writes block (u, v)'s pixel: the one at `from` (its colour too), or no depth.
+inline void Emit(size_t k, size_t from, bool valid, bool with_color, core::DepthImage* depth,
+                 core::ColorImage* color) {
+  if (with_color) color->data[k] = color->data[from];
+  depth->data[k] = valid ? depth->data[from] : uint16_t{0};
+}
+
+// Factor 2, the common case: a sorting network of four keys on registers.
+void DecimateByTwo(int w, int h, bool with_color, core::DepthImage* depth,
+                   core::ColorImage* color) {
+  const size_t stride = static_cast<size_t>(depth->width);
+  for (int v = 0; v < h; ++v) {
+    const size_t row = static_cast<size_t>(v) * 2 * stride;
+    const uint16_t* top = depth->data.data() + row;
+    const uint16_t* bottom = top + stride;
+    for (int u = 0; u < w; ++u) {
+      const uint32_t d0 = top[2 * u], d1 = top[2 * u + 1], d2 = bottom[2 * u],
+                     d3 = bottom[2 * u + 1];
+      // A missing depth's key has every bit set (no branch: holes are scattered).
+      uint32_t k0 = d0 << 4 | (0u - (d0 == 0));
+      uint32_t k1 = d1 << 4 | 1u | (0u - (d1 == 0));
+      uint32_t k2 = d2 << 4 | 2u | (0u - (d2 == 0));
+      uint32_t k3 = d3 << 4 | 3u | (0u - (d3 == 0));
+      const int valid = (d0 != 0) + (d1 != 0) + (d2 != 0) + (d3 != 0);
+      const auto cs = [](uint32_t& a, uint32_t& b) {
+        const uint32_t lo = std::min(a, b);
+        b = std::max(a, b);
+        a = lo;
+      };
+      cs(k0, k1);
+      cs(k2, k3);
+      cs(k0, k2);
+      cs(k1, k3);
+      cs(k1, k2);
+      // The lower median of `valid` keys: the first for 1 or 2, the second for 3 or 4.
+      // (No depth: the block's first pixel, for its colour.)
+      const uint32_t pos = valid == 0 ? 0u : (valid >= 3 ? k1 : k0) & 3u;
+      const size_t first = row + 2 * static_cast<size_t>(u);
+      Emit(static_cast<size_t>(v) * w + u, first + (pos >> 1) * stride + (pos & 1u), valid > 0,
+           with_color, depth, color);
     }
   }
-  return n == 0 ? -1 : at[(n - 1) / 2];
+}
+
+// Any factor up to kMaxDecimation: the keys of each block, partially ordered.
+void DecimateByN(int factor, int w, int h, bool with_color, core::DepthImage* depth,
+                 core::ColorImage* color) {
+  std::array<uint32_t, kMaxDecimation * kMaxDecimation> keys{};
+  const size_t stride = static_cast<size_t>(depth->width);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const size_t first = (static_cast<size_t>(v) * stride + u) * factor;
+      int valid = 0;
+      for (int dv = 0; dv < factor; ++dv) {
+        for (int du = 0; du < factor; ++du) {
+          const uint16_t d = depth->data[first + dv * stride + du];
+          const int pos = dv * factor + du;
+          keys[pos] = d == 0 ? kMissing : (uint32_t{d} << 4 | static_cast<uint32_t>(pos));
+          valid += d != 0;
+        }
+      }
+      const int pos = MedianPosition(keys.data(), factor * factor, valid);
+      const size_t from = pos < 0 ? first : first + (pos / factor) * stride + pos % factor;
+      Emit(static_cast<size_t>(v) * w + u, from, pos >= 0, with_color, depth, color);
+    }
+  }
 }
 
 }  // namespace
@@ -48,15 +102,10 @@ void DecimateFrame(int factor, core::RgbdFrame* frame) {
   const bool with_color = color.width == depth.width && color.height == depth.height;
   // In place, row-major: output pixel k reads only input pixels at index >= k, and writing k
   // overwrites no input that a later output pixel reads (their blocks start after k).
-  for (int v = 0; v < h; ++v) {
-    for (int u = 0; u < w; ++u) {
-      const ptrdiff_t i = MedianPixel(depth, factor, u, v);
-      const ptrdiff_t first = static_cast<ptrdiff_t>(v * factor) * depth.width + u * factor;
-      const size_t k = static_cast<size_t>(v) * w + u;
-      const ptrdiff_t from = i < 0 ? first : i;
-      if (with_color) color.data[k] = color.data[static_cast<size_t>(from)];
-      depth.data[k] = i < 0 ? uint16_t{0} : depth.data[static_cast<size_t>(i)];
-    }
+  if (factor == 2) {
+    DecimateByTwo(w, h, with_color, &depth, &color);
+  } else {
+    DecimateByN(factor, w, h, with_color, &depth, &color);
   }
   depth.width = w;
   depth.height = h;

@@ -1,6 +1,9 @@
 #include "clutterseg/pipeline/decimation.h"
 
+#include <algorithm>
 #include <cstdint>
+#include <random>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -54,6 +57,38 @@ TEST(DecimateFrame, EachBlockKeepsItsPixelOfMedianValidDepthWithItsColour) {
   EXPECT_EQ(at(2), (std::vector<int>{0, 2}));  // no depth: the block's first pixel
   EXPECT_EQ(at(3), (std::vector<int>{3, 2}));
   EXPECT_EQ(f.depth.data.capacity(), capacity);  // no reallocation
+}
+
+TEST(DecimateFrame, EveryFactorPicksTheLowerMedianOfEachBlock) {
+  // Random depths with holes (blocks of every number of valid pixels, equal depths) against
+  // the definition: the block's valid pixels ordered by depth, then block order.
+  std::mt19937 rng(7);
+  for (int factor = 2; factor <= kMaxDecimation; ++factor) {
+    const int w = 13 * factor + 1, h = 11 * factor;
+    std::vector<uint16_t> depth(static_cast<size_t>(w) * h);
+    for (uint16_t& d : depth) d = rng() % 3 == 0 ? 0 : static_cast<uint16_t>(1000 + rng() % 4);
+    core::RgbdFrame f = Frame(w, h, depth);
+    DecimateFrame(factor, &f);
+    ASSERT_EQ(f.depth.width, w / factor);
+    for (int v = 0; v < h / factor; ++v) {
+      for (int u = 0; u < w / factor; ++u) {
+        std::vector<std::pair<uint16_t, int>> block;  // (depth, position in the block)
+        for (int dv = 0; dv < factor; ++dv) {
+          for (int du = 0; du < factor; ++du) {
+            const uint16_t d = depth[static_cast<size_t>(v * factor + dv) * w + u * factor + du];
+            if (d != 0) block.emplace_back(d, dv * factor + du);
+          }
+        }
+        std::sort(block.begin(), block.end());
+        const int pos = block.empty() ? 0 : block[(block.size() - 1) / 2].second;
+        const size_t k = static_cast<size_t>(v) * f.depth.width + u;
+        EXPECT_EQ(f.depth.data[k], block.empty() ? 0 : block[(block.size() - 1) / 2].first)
+            << "factor " << factor << " block " << u << "," << v;
+        EXPECT_EQ(f.color.data[k].r, u * factor + pos % factor) << "factor " << factor;
+        EXPECT_EQ(f.color.data[k].g, v * factor + pos / factor) << "factor " << factor;
+      }
+    }
+  }
 }
 
 TEST(DecimateFrame, BlockCentresBackProjectAlongTheSameRays) {
