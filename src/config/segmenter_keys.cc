@@ -20,6 +20,11 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(temporal, min_band_m),
       CLUTTERSEG_SEGMENTER_KEY(temporal, hole_fill_frames),
 
+      CLUTTERSEG_SEGMENTER_KEY(partition, hold_frames),
+      CLUTTERSEG_SEGMENTER_KEY(partition, min_still_share),
+      CLUTTERSEG_SEGMENTER_KEY(partition, min_cover_share),
+      CLUTTERSEG_SEGMENTER_KEY(partition, min_pixels),
+
       CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),
 

@@ -22,6 +22,7 @@
 #include "clutterseg/pipeline/decimation.h"
 #include "clutterseg/pipeline/frame_runner.h"
 #include "clutterseg/pipeline/overlay.h"
+#include "clutterseg/pipeline/partition_prior.h"
 #include "clutterseg/pipeline/temporal_filter.h"
 #include "clutterseg/pipeline/tracker.h"
 
@@ -33,6 +34,8 @@ namespace {
 struct LaneOutput {
   uint64_t sequence{0};
   std::shared_ptr<const core::Extrinsics> extrinsics;  // the pose this frame is published in
+  FrameInfo info;
+  float queue_ms{0.f};
   FrameMessages messages;
   OverlayFrame overlay;
 };
@@ -73,6 +76,7 @@ struct Daemon::Impl {
                                config.camera.extrinsics_file + ")");
     }
     SetTemporalFilter(config.segmenter.temporal);
+    SetPartitionPrior(config.segmenter);
   }
 
   const DaemonConfig config;
@@ -102,6 +106,11 @@ struct Daemon::Impl {
   uint64_t last_filtered_sequence{0};                       // dispatcher thread only
   std::mutex temporal_params_mutex;
   std::unique_ptr<pipeline::TemporalFilterParams> pending_temporal_params;  // applied next
+  // The partition prior: applied in the ordered completion (frame order), streams only.
+  std::unique_ptr<pipeline::PartitionPrior> partition;  // ordered completion only
+  pipeline::TemporalFilterParams partition_band;        // the band it was made with
+  std::mutex partition_params_mutex;
+  std::unique_ptr<pipeline::SegmenterParams> pending_partition_params;  // applied next
   pipeline::FrameRunner runner;  // last: its lanes use everything above
   std::thread dispatch_thread;
   bool opened{false};
@@ -161,6 +170,27 @@ struct Daemon::Impl {
 
   // ---- a lane: segments one frame into its output (FrameRunner::Work) ------------------
 
+  // The objects and labels messages of the lane's result (and the overlay's labels). Run by
+  // the lane after segmenting, and again in the ordered completion when the partition prior
+  // changed the result.
+  void DescribeObjects(const pipeline::FrameRunner::Lane& lane, LaneOutput* out) {
+    const pipeline::SegmentationResult& result = *lane.result;
+    FrameMessages& m = out->messages;
+    ToObjectsMessage(result, out->info, &m.objects);
+    m.objects.queue_ms = out->queue_ms;
+    if (config.lcm.object_points > 0) {
+      SampleObjectPoints(lane.segmenter->working_cloud(), result.labels, config.lcm.object_points,
+                         &m.objects);
+    }
+    if (out->extrinsics) {
+      ToParentFrame(*out->extrinsics, lane.segmenter->working_cloud(), result.labels, &m.objects);
+    }
+    m.has_labels = config.lcm.publish_labels;
+    if (m.has_labels) {
+      EncodeLabelImage(result.labels, out->info, config.lcm.label_compression, &m.labels);
+    }
+  }
+
   void Segment(const pipeline::FrameRunner::Lane& lane, const core::RgbdFrame* frame) {
     LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
     out.sequence = frame->sequence;
@@ -177,30 +207,18 @@ struct Daemon::Impl {
     FrameMessages& m = out.messages;
     m.receive_utime = frame->receive_utime;
     m.segment_ms = static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
-    FrameInfo info;
+    FrameInfo& info = out.info;
     info.utime = frame->host_utime;
     info.device_utime = frame->utime;
     info.frame_seq = static_cast<int64_t>(frame->sequence);
     info.camera_name = frame->camera_name;
     info.intrinsics = frame->intrinsics;
-    ToObjectsMessage(result, info, &m.objects);
-    m.objects.queue_ms =
-        static_cast<float>(static_cast<double>(start_us - frame->receive_utime) * 1e-3);
-    if (config.lcm.object_points > 0) {
-      SampleObjectPoints(lane.segmenter->working_cloud(), result.labels, config.lcm.object_points,
-                         &m.objects);
-    }
+    out.queue_ms = static_cast<float>(static_cast<double>(start_us - frame->receive_utime) * 1e-3);
     {
       std::lock_guard<std::mutex> lock(extrinsics_mutex);
       out.extrinsics = extrinsics;
     }
-    if (out.extrinsics) {
-      ToParentFrame(*out.extrinsics, lane.segmenter->working_cloud(), result.labels, &m.objects);
-    }
-    m.has_labels = config.lcm.publish_labels;
-    if (m.has_labels) {
-      EncodeLabelImage(result.labels, info, config.lcm.label_compression, &m.labels);
-    }
+    DescribeObjects(lane, &out);
     m.has_depth = config.lcm.publish_depth && !frame->depth.empty();
     if (m.has_depth) EncodeDepthImage(frame->depth, info, true, &m.depth);
     if (overlay) {
@@ -281,6 +299,7 @@ struct Daemon::Impl {
     }
     const int64_t max_frames = config.capture.max_frames;
     if (max_frames > 0 && handed.load() >= static_cast<uint64_t>(max_frames)) return;
+    ApplyPartitionPrior(lane, &out);
     if (tracker) {
       {
         std::lock_guard<std::mutex> lock(tracker_params_mutex);
@@ -318,6 +337,39 @@ struct Daemon::Impl {
       Log(LogLevel::kInfo, "published " + std::to_string(n) + " frames (max_frames); stopping");
       RequestStop();
     }
+  }
+
+  // A new partition prior (its history starts afresh) or none: frames of a stream only, with
+  // segmenter.partition.hold_frames > 1. Parameters equal to the running prior's keep it.
+  // Ordered completion, or before the lanes start.
+  void SetPartitionPrior(const pipeline::SegmenterParams& params) {
+    const pipeline::SegmenterParams p =
+        pipeline::ForDecimatedFrames(params, config.camera.decimation);
+    if (partition && p.partition == partition->params() && p.temporal == partition_band) return;
+    partition.reset();
+    if (stream_source && p.partition.hold_frames > 1) {
+      partition = std::make_unique<pipeline::PartitionPrior>(p.partition, p.temporal);
+      partition_band = p.temporal;
+    }
+  }
+
+  // The hysteresis on the partition, in frame order; a changed result is described again.
+  void ApplyPartitionPrior(const pipeline::FrameRunner::Lane& lane, LaneOutput* out) {
+    {
+      std::lock_guard<std::mutex> lock(partition_params_mutex);
+      if (pending_partition_params) {
+        SetPartitionPrior(*pending_partition_params);
+        pending_partition_params.reset();
+      }
+    }
+    if (!partition) return;
+    const int64_t start_us = core::SteadyClockMicros();
+    if (partition->Apply(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
+                         lane.result)) {
+      DescribeObjects(lane, out);
+      if (overlay) out->overlay.labels = lane.result->labels;
+    }
+    out->messages.segment_ms += static_cast<double>(core::SteadyClockMicros() - start_us) * 1e-3;
   }
 
   // ---- dispatcher: frame queue -> runner -> frame queue -----------------------------------
@@ -483,6 +535,10 @@ void Daemon::UpdateSegmenterParams(const pipeline::SegmenterParams& params) {
     std::lock_guard<std::mutex> lock(impl_->temporal_params_mutex);
     impl_->pending_temporal_params =
         std::make_unique<pipeline::TemporalFilterParams>(params.temporal);
+  }
+  {
+    std::lock_guard<std::mutex> lock(impl_->partition_params_mutex);
+    impl_->pending_partition_params = std::make_unique<pipeline::SegmenterParams>(params);
   }
   impl_->reloads.fetch_add(1);
 }

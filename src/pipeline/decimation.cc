@@ -131,6 +131,7 @@ SegmenterParams ForDecimatedFrames(SegmenterParams params, int factor) {
   const int area = factor * factor;
   params.objects.min_object_points =
       std::max(1, (params.objects.min_object_points + area / 2) / area);
+  params.partition.min_pixels = std::max(1, (params.partition.min_pixels + area / 2) / area);
   return params;
 }
 

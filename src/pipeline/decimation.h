@@ -27,9 +27,9 @@ inline constexpr int kMaxDecimation = 4;
 void DecimateFrame(int factor, core::RgbdFrame* frame);
 
 /// The segmenter parameters for frames decimated by `factor`: those counted in points are
-/// divided by factor^2 (objects.min_object_points, at least 1), so the same objects are kept
-/// as at full resolution; everything else is in metres, pixels of the grid or shares and
-/// stays. Factor 1 returns `params` unchanged.
+/// divided by factor^2 (objects.min_object_points and partition.min_pixels, at least 1), so
+/// the same objects are kept as at full resolution; everything else is in metres, pixels of
+/// the grid or shares and stays. Factor 1 returns `params` unchanged.
 SegmenterParams ForDecimatedFrames(SegmenterParams params, int factor);
 
 }  // namespace clutterseg::pipeline

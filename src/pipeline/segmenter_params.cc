@@ -33,6 +33,7 @@ void ObjectParams::ValidateOrThrow() const {
 
 void SegmenterParams::ValidateOrThrow() const {
   temporal.ValidateOrThrow();
+  partition.ValidateOrThrow();
   points.ValidateOrThrow();
   support.ValidateOrThrow();
   supervoxel.ValidateOrThrow();

@@ -5,6 +5,7 @@
 #include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage_params.h"
 #include "clutterseg/optimize/plane_params.h"
+#include "clutterseg/pipeline/partition_prior.h"
 #include "clutterseg/pipeline/temporal_filter.h"
 #include "clutterseg/pipeline/working_cloud.h"
 #include "clutterseg/supervoxel/supervoxel_params.h"
@@ -119,6 +120,9 @@ struct SegmenterParams {
   /// The temporal depth filter of a stream, applied before the Segmenter by the program that
   /// owns the stream (the daemon), in frame order; the Segmenter itself does not read it.
   TemporalFilterParams temporal;
+  /// The hysteresis on the partition of a stream, applied after the Segmenter by the program
+  /// that owns the stream, in frame order; the Segmenter itself does not read it.
+  PartitionPriorParams partition;
   PointsParams points;
   geometry::PlanarRegionParams support;
   supervoxel::SupervoxelParams supervoxel;

@@ -106,6 +106,26 @@ TEST_F(DaemonTemporal, OneLaneAndOneThreadGiveTheSameFilteredFramesAndLabels) {
   }
 }
 
+// segmenter.partition runs in the ordered completion, in frame order: with it on, the
+// published labels do not depend on the lanes or threads either.
+TEST_F(DaemonTemporal, ThePartitionPriorGivesTheSameLabelsWhateverTheLanes) {
+  const std::vector<std::string> hold = {"--set", "segmenter.partition.hold_frames=2"};
+  std::vector<std::string> serial_args = hold;
+  for (const char* a : {"--set", "processing.pipeline_depth=1", "--set", "processing.threads=1"}) {
+    serial_args.push_back(a);
+  }
+  std::vector<std::string> wide_args = hold;
+  wide_args.push_back("--set");
+  wide_args.push_back("processing.pipeline_depth=3");
+  const Published serial = Replay(recording_, "prior_serial", serial_args);
+  const Published wide = Replay(recording_, "prior_wide", wide_args);
+  ASSERT_EQ(serial.labels.size(), 6u);
+  ASSERT_EQ(wide.labels.size(), serial.labels.size());
+  for (size_t k = 0; k < serial.labels.size(); ++k) {
+    EXPECT_EQ(wide.labels[k].data, serial.labels[k].data) << k;
+  }
+}
+
 TEST(DaemonTemporalSources, StreamsAreFilteredAndDirectoriesOfFilesAreNot) {
   EXPECT_TRUE(IsFrameStream("device"));
   EXPECT_TRUE(IsFrameStream("device:1d27/0601@2/3"));

@@ -155,6 +155,9 @@ TEST(ForDecimatedFrames, DividesThePointCountsByTheFactorSquared) {
   EXPECT_EQ(ForDecimatedFrames(p, 3).objects.min_object_points, 17);
   p.objects.min_object_points = 1;
   EXPECT_EQ(ForDecimatedFrames(p, 4).objects.min_object_points, 1);
+  p.partition.min_pixels = 100;
+  EXPECT_EQ(ForDecimatedFrames(p, 2).partition.min_pixels, 25);
+  EXPECT_EQ(ForDecimatedFrames(p, 1).partition.min_pixels, 100);
   // Everything else stays.
   const SegmenterParams d;
   const SegmenterParams q = ForDecimatedFrames(d, 2);

@@ -1,0 +1,378 @@
+#include "clutterseg/pipeline/partition_prior.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "clutterseg/core/param_check.h"
+
+namespace clutterseg::pipeline {
+namespace {
+
+// Passes of the fill that gives a cut segment's pixels of no previous part to the nearest
+// part; pixels still unreached after them go to the segment's largest part.
+constexpr int kMaxFillPasses = 64;
+
+template <typename T>
+T* FindCount(std::vector<T>* v, uint32_t a, uint32_t b) {
+  for (T& c : *v) {
+    if constexpr (requires { c.b; }) {
+      if (c.a == a && c.b == b) return &c;
+    } else {
+      if (c.id == a) return &c;
+    }
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+void PartitionPriorParams::ValidateOrThrow() const {
+  const core::ParamCheck check(kSection);
+  check.InRange("hold_frames", hold_frames, 1, 1000, "(1 = off)");
+  check.Require(min_still_share > 0.f && min_still_share <= 1.f, "min_still_share", min_still_share,
+                "a share in (0, 1]");
+  check.Require(min_cover_share >= 0.5f && min_cover_share < 1.f, "min_cover_share",
+                min_cover_share, "a share in [0.5, 1)");
+  check.InRange("min_pixels", min_pixels, 1, 1 << 24);
+}
+
+PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
+    : params_((params.ValidateOrThrow(), params)),
+      band_at_1m_m_(band.band_at_1m_m),
+      min_band_m_(band.min_band_m) {}
+
+PartitionPrior::~PartitionPrior() = default;
+
+void PartitionPrior::Reset() {
+  have_prev_ = false;
+  merges_.clear();
+  splits_.clear();
+}
+
+size_t PartitionPrior::memory_bytes() const {
+  return prev_labels_.capacity() * sizeof(uint32_t) + prev_z_.capacity() * sizeof(float) +
+         still_age_.capacity();
+}
+
+bool PartitionPrior::Still(float z, float z_prev) const {
+  // NaN (no measurement) in either frame is not still.
+  const float band = std::max(min_band_m_, band_at_1m_m_ * z * z);
+  return std::abs(z - z_prev) <= band;
+}
+
+int PartitionPrior::Find(std::vector<int>* parent, int x) {
+  std::vector<int>& up = *parent;
+  while (up[static_cast<size_t>(x)] != x) {
+    up[static_cast<size_t>(x)] = up[static_cast<size_t>(up[static_cast<size_t>(x)])];
+    x = up[static_cast<size_t>(x)];
+  }
+  return x;
+}
+
+bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
+                           SegmentationResult* result) {
+  counts_ = PartitionPriorCounts{};
+  if (params_.hold_frames <= 1) return false;
+  const int w = result->labels.width, h = result->labels.height;
+  const size_t num_pixels = result->labels.data.size();
+  if (!cloud.organized() || cloud.size() != num_pixels || w != cloud.width || h != cloud.height) {
+    Reset();
+    return false;
+  }
+  if (have_prev_ && (frame_seq <= prev_seq_ || w != width_ || h != height_)) Reset();
+  const uint32_t n = static_cast<uint32_t>(result->objects.size());
+  const uint32_t* labels = result->labels.data.data();
+  if (!have_prev_) {
+    counts_rp_.clear();
+    Remember(cloud, *result, counts_rp_, false);
+    prev_seq_ = frame_seq;
+    return false;
+  }
+  const uint32_t m = static_cast<uint32_t>(prev_id_.size() - 1);
+  const size_t stride = m + 1;
+
+  // Still pixels per (segment, previous object), and the valid pixels of each segment.
+  // Each pixel's still age (frames in a row within the band) is updated on the way; a
+  // previous object is established when most of its still pixels have been still for
+  // hold_frames frames, so that a partition made in the frame of a change (the first view
+  // after an occluder passed) is not held.
+  counts_rp_.assign((n + 1) * stride, 0u);
+  valid_r_.assign(n + 1, 0u);
+  established_p_.assign(m + 1, 0u);
+  const int hold = params_.hold_frames;
+  for (size_t i = 0; i < num_pixels; ++i) {
+    const uint32_t r = labels[i] <= n ? labels[i] : 0;
+    const float z = cloud.xyz[i].z;
+    if (!(z > 0.f)) {
+      still_age_[i] = 0;
+      continue;
+    }
+    ++valid_r_[r];
+    if (!Still(z, prev_z_[i])) {
+      still_age_[i] = 0;
+      continue;
+    }
+    const uint32_t p = prev_labels_[i];
+    ++counts_rp_[r * stride + p];
+    if (still_age_[i] < 255) ++still_age_[i];
+    if (still_age_[i] >= hold) ++established_p_[p];
+  }
+  still_r_.assign(n + 1, 0u);
+  still_p_.assign(m + 1, 0u);
+  for (uint32_t r = 0; r <= n; ++r) {
+    for (uint32_t p = 0; p <= m; ++p) {
+      const uint32_t c = counts_rp_[r * stride + p];
+      still_r_[r] += c;
+      still_p_[p] += c;
+    }
+  }
+  const auto still = [&](uint32_t r) {
+    return r >= 1 && valid_r_[r] > 0 &&
+           static_cast<float>(still_r_[r]) >= params_.min_still_share * valid_r_[r];
+  };
+  const auto min_px = static_cast<uint32_t>(params_.min_pixels);
+  const auto established = [&](uint32_t p) {
+    return static_cast<float>(established_p_[p]) >= params_.min_still_share * still_p_[p];
+  };
+
+  // Merges: a still segment covering several previous objects.
+  new_merges_.clear();
+  new_splits_.clear();
+  covered_n_.assign(n + 1, 0);
+  map_.resize(n + 1);
+  for (uint32_t r = 0; r <= n; ++r) map_[r] = r;
+  if (split_.size() < n + 1) split_.resize(n + 1);
+  for (auto& s : split_) s.clear();
+  uint32_t next_label = n + 1;
+  std::vector<uint32_t> covered;
+  std::vector<int> parent;
+  for (uint32_t r = 1; r <= n; ++r) {
+    covered.clear();
+    for (uint32_t p = 1; p <= m; ++p) {
+      if (still_p_[p] >= min_px &&
+          static_cast<float>(counts_rp_[r * stride + p]) >= params_.min_cover_share * still_p_[p]) {
+        covered.push_back(p);
+      }
+    }
+    covered_n_[r] = static_cast<int>(covered.size());
+    if (covered.size() < 2 || !still(r) ||
+        !std::all_of(covered.begin(), covered.end(), established)) {
+      continue;
+    }
+    // Join the previous objects whose pair has been merged for hold_frames frames in a row.
+    parent.resize(covered.size());
+    for (size_t k = 0; k < covered.size(); ++k) parent[k] = static_cast<int>(k);
+    for (size_t i = 0; i < covered.size(); ++i) {
+      for (size_t j = i + 1; j < covered.size(); ++j) {
+        uint32_t a = prev_id_[covered[i]], b = prev_id_[covered[j]];
+        if (a > b) std::swap(a, b);
+        const PairCount* before = FindCount(&merges_, a, b);
+        const int count = (before != nullptr ? before->count : 0) + 1;
+        new_merges_.push_back(PairCount{a, b, count});
+        if (count >= params_.hold_frames) {
+          parent[static_cast<size_t>(Find(&parent, static_cast<int>(i)))] =
+              Find(&parent, static_cast<int>(j));
+        }
+      }
+    }
+    // One output object per group of joined previous objects; the group holding the most
+    // still pixels of the segment keeps its label.
+    std::vector<uint32_t> group_px(covered.size(), 0u);
+    for (size_t k = 0; k < covered.size(); ++k) {
+      group_px[static_cast<size_t>(Find(&parent, static_cast<int>(k)))] +=
+          counts_rp_[r * stride + covered[k]];
+    }
+    int keeper = -1, groups = 0;
+    for (size_t k = 0; k < covered.size(); ++k) {
+      if (Find(&parent, static_cast<int>(k)) != static_cast<int>(k)) continue;
+      ++groups;
+      if (keeper < 0 || group_px[k] > group_px[static_cast<size_t>(keeper)]) {
+        keeper = static_cast<int>(k);
+      }
+    }
+    if (groups < 2) {
+      ++counts_.passed_merges;
+      continue;
+    }
+    ++counts_.held_merges;
+    std::vector<uint32_t>& to = split_[r];
+    to.assign(m + 1, 0u);
+    std::vector<uint32_t> group_label(covered.size(), 0u);
+    for (size_t k = 0; k < covered.size(); ++k) {
+      if (Find(&parent, static_cast<int>(k)) != static_cast<int>(k)) continue;
+      group_label[k] = static_cast<int>(k) == keeper ? r : next_label++;
+    }
+    for (size_t k = 0; k < covered.size(); ++k) {
+      to[covered[k]] = group_label[static_cast<size_t>(Find(&parent, static_cast<int>(k)))];
+    }
+  }
+
+  // Splits: still segments lying within one previous object, each covering nothing else.
+  for (uint32_t p = 1; p <= m; ++p) {
+    if (still_p_[p] < min_px || !established(p)) continue;
+    uint32_t keeper = 0, parts = 0;
+    bool all_still = true;
+    for (uint32_t r = 1; r <= n; ++r) {
+      const uint32_t c = counts_rp_[r * stride + p];
+      if (c == 0 || static_cast<float>(c) < params_.min_cover_share * still_r_[r]) continue;
+      if (!split_[r].empty() || covered_n_[r] > 1) continue;
+      ++parts;
+      all_still = all_still && still(r);
+      if (keeper == 0 || c > counts_rp_[keeper * stride + p]) keeper = r;
+    }
+    if (parts < 2 || !all_still) continue;
+    const IdCount* before = FindCount(&splits_, prev_id_[p], 0);
+    const int count = (before != nullptr ? before->count : 0) + 1;
+    new_splits_.push_back(IdCount{prev_id_[p], count});
+    if (count >= params_.hold_frames) {
+      ++counts_.passed_splits;
+      continue;
+    }
+    ++counts_.held_splits;
+    for (uint32_t r = 1; r <= n; ++r) {
+      const uint32_t c = counts_rp_[r * stride + p];
+      if (c == 0 || static_cast<float>(c) < params_.min_cover_share * still_r_[r]) continue;
+      if (!split_[r].empty() || covered_n_[r] > 1) continue;
+      map_[r] = keeper;
+    }
+  }
+  merges_.swap(new_merges_);
+  splits_.swap(new_splits_);
+
+  const bool changed = counts_.held_merges > 0 || counts_.held_splits > 0;
+  if (!changed) {
+    Remember(cloud, *result, counts_rp_, true);
+    prev_seq_ = frame_seq;
+    return false;
+  }
+
+  // Output labels before compaction: joined parts to their keeper; pixels of a cut segment to
+  // the part of their previous object, or, having none, to the nearest part (filled in passes
+  // over 4-neighbours within the segment; the labels taken in a pass are written after it).
+  out_labels_.resize(num_pixels);
+  pending_.clear();
+  for (size_t i = 0; i < num_pixels; ++i) {
+    const uint32_t r = labels[i] <= n ? labels[i] : 0;
+    if (r != 0 && !split_[r].empty()) {
+      const uint32_t to = split_[r][prev_labels_[i]];
+      out_labels_[i] = to;
+      if (to == 0) pending_.push_back(static_cast<uint32_t>(i));
+    } else {
+      out_labels_[i] = map_[r];
+    }
+  }
+  for (int pass = 0; pass < kMaxFillPasses && !pending_.empty(); ++pass) {
+    pending_next_.clear();
+    taken_.clear();
+    for (const uint32_t i : pending_) {
+      const uint32_t r = labels[i];
+      const int u = static_cast<int>(i % static_cast<size_t>(w));
+      const int v = static_cast<int>(i / static_cast<size_t>(w));
+      uint32_t take = 0;
+      const auto look = [&](int uu, int vv) {
+        if (take != 0 || uu < 0 || vv < 0 || uu >= w || vv >= h) return;
+        const size_t j = static_cast<size_t>(vv) * static_cast<size_t>(w) + static_cast<size_t>(uu);
+        if (labels[j] == r && out_labels_[j] != 0) take = out_labels_[j];
+      };
+      look(u - 1, v);
+      look(u + 1, v);
+      look(u, v - 1);
+      look(u, v + 1);
+      if (take == 0) {
+        pending_next_.push_back(i);
+      } else {
+        taken_.push_back(i);
+        taken_.push_back(take);
+      }
+    }
+    if (taken_.empty()) break;
+    for (size_t k = 0; k < taken_.size(); k += 2) out_labels_[taken_[k]] = taken_[k + 1];
+    pending_.swap(pending_next_);
+  }
+  for (const uint32_t i : pending_) out_labels_[i] = labels[i];  // unreached: the keeper's
+
+  // Compaction: labels in order, the cut parts after the segments.
+  std::vector<uint32_t> final_label(next_label, 0u);
+  std::vector<uint8_t> used(next_label, 0u);
+  for (size_t i = 0; i < num_pixels; ++i) used[out_labels_[i]] = 1;
+  uint32_t count = 0;
+  for (uint32_t l = 1; l < next_label; ++l) {
+    if (used[l]) final_label[l] = ++count;
+  }
+  uint32_t* out = result->labels.data.data();
+  for (size_t i = 0; i < num_pixels; ++i) out[i] = final_label[out_labels_[i]];
+  result->objects.assign(count, Object{});
+  for (uint32_t k = 0; k < count; ++k) result->objects[k].id = k + 1;
+  extractor_.Compute(cloud, result);
+
+  // The output against the previous frame, for the ids the next frame's counts refer to.
+  const uint32_t n_out = count;
+  counts_rp_.assign((n_out + 1) * stride, 0u);
+  for (size_t i = 0; i < num_pixels; ++i) {
+    const float z = cloud.xyz[i].z;
+    if (z > 0.f && Still(z, prev_z_[i])) ++counts_rp_[out[i] * stride + prev_labels_[i]];
+  }
+  Remember(cloud, *result, counts_rp_, true);
+  prev_seq_ = frame_seq;
+  return true;
+}
+
+void PartitionPrior::Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
+                              const std::vector<uint32_t>& counts, bool have_counts) {
+  const size_t num_pixels = result.labels.data.size();
+  const uint32_t n = static_cast<uint32_t>(result.objects.size());
+  // Ids: an object takes the id of the previous object holding most of its still pixels
+  // (at least half of them), and the previous object's largest share decides between two
+  // claimants; the rest get new ids.
+  std::vector<uint32_t> id(n + 1, 0u);
+  if (have_counts && have_prev_) {
+    const uint32_t m = static_cast<uint32_t>(prev_id_.size() - 1);
+    const size_t stride = m + 1;
+    std::vector<uint32_t> best_p(n + 1, 0u), best_c(n + 1, 0u);
+    std::vector<uint32_t> owner(m + 1, 0u), owner_c(m + 1, 0u);
+    for (uint32_t o = 1; o <= n; ++o) {
+      uint32_t total = 0;
+      for (uint32_t p = 0; p <= m; ++p) {
+        const uint32_t c = counts[o * stride + p];
+        total += c;
+        if (p >= 1 && c > best_c[o]) {
+          best_c[o] = c;
+          best_p[o] = p;
+        }
+      }
+      if (best_p[o] == 0 || 2 * best_c[o] < total) {
+        best_p[o] = 0;
+        continue;
+      }
+      const uint32_t p = best_p[o];
+      if (owner[p] == 0 || best_c[o] > owner_c[p]) {
+        owner[p] = o;
+        owner_c[p] = best_c[o];
+      }
+    }
+    for (uint32_t p = 1; p <= m; ++p) {
+      if (owner[p] != 0) id[owner[p]] = prev_id_[p];
+    }
+  }
+  for (uint32_t o = 1; o <= n; ++o) {
+    if (id[o] == 0) id[o] = next_id_++;
+  }
+  prev_id_.swap(id);
+  prev_labels_.resize(num_pixels);
+  for (size_t i = 0; i < num_pixels; ++i) {
+    const uint32_t l = result.labels.data[i];
+    prev_labels_[i] = l <= n ? l : 0;
+  }
+  if (still_age_.size() != num_pixels || !have_prev_) still_age_.assign(num_pixels, 0);
+  prev_z_.resize(num_pixels);
+  for (size_t i = 0; i < num_pixels; ++i) {
+    const float z = cloud.xyz[i].z;
+    prev_z_[i] = z > 0.f ? z : std::numeric_limits<float>::quiet_NaN();
+  }
+  width_ = result.labels.width;
+  height_ = result.labels.height;
+  have_prev_ = true;
+}
+
+}  // namespace clutterseg::pipeline

@@ -1,0 +1,139 @@
+#pragma once
+
+#include <cstdint>
+#include <string_view>
+#include <vector>
+
+#include "clutterseg/core/point_cloud.h"
+#include "clutterseg/pipeline/objects.h"
+#include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/pipeline/temporal_filter.h"
+
+namespace clutterseg::pipeline {
+
+/// Parameters of the PartitionPrior (configuration section `segmenter.partition`; every key is
+/// named `segmenter.partition.<field>`). Frame counts are frames of the stream.
+struct PartitionPriorParams {
+  static constexpr std::string_view kSection = "segmenter.partition";
+
+  /// A change of the partition of a still region (two objects of the previous frame now one
+  /// segment, or one object now several) is published once the segmentation has shown it in
+  /// this many consecutive frames; until then the previous frame's boundaries are kept there.
+  /// 1 = every change at once (off). A region whose depth changed does not wait (see
+  /// min_still_share).
+  int hold_frames{1};
+  /// A segment counts as still when at least this share of its valid pixels kept their depth
+  /// within the temporal filter's band (segmenter.temporal.band_at_1m_m, min_band_m) since the
+  /// previous frame (0..1]. Anything placed, removed, pushed or passing in front makes its
+  /// segments not still, and their partition is published as segmented, in the same frame.
+  float min_still_share{0.9f};
+  /// An object of the previous frame is covered by a segment holding at least this share of
+  /// its still pixels; a segment is a part of a previous object when that object holds at
+  /// least this share of the segment's still pixels [0.5..1).
+  float min_cover_share{0.5f};
+  /// Objects and segments with fewer still pixels than this are left as segmented.
+  int min_pixels{100};
+
+  /// @throws std::invalid_argument naming the key (`segmenter.partition.<field>`) and value.
+  void ValidateOrThrow() const;
+  bool operator==(const PartitionPriorParams&) const = default;
+};
+
+/// Counters of one Apply.
+struct PartitionPriorCounts {
+  int held_merges{0};    ///< segments cut back along the previous frame's boundaries
+  int held_splits{0};    ///< previous objects whose parts were joined back
+  int passed_merges{0};  ///< merges of still objects published (seen hold_frames in a row)
+  int passed_splits{0};  ///< splits of still objects published (seen hold_frames in a row)
+};
+
+/// Hysteresis on the partition of a stream (docs/method.md, "Temporal coherence"): where the
+/// scene is still, a boundary that the segmentation opens or closes in one frame only does not
+/// reach the output. Each frame's segments are compared with the previous frame's published
+/// objects over the pixels whose depth stayed within the sensor's noise band. A segment that
+/// covers two or more previous objects is cut back along their previous boundaries (pixels
+/// that belonged to neither go to the nearest part, in the image, within the segment) until
+/// the segmentation has joined that pair in hold_frames consecutive frames; parts that lie
+/// within one previous object are joined back until it has split that object in hold_frames
+/// consecutive frames. Then the change is published. The counts follow the segmentation, not
+/// the output: a merge seen in most frames is published after hold_frames of them, a merge
+/// seen now and then never is. A segment that is not still (min_still_share) is published as
+/// segmented, so a change of the scene shows in the first frame that measures it; a previous
+/// object is held only once most of its pixels have been still for hold_frames frames, so a
+/// partition made in the frame of a change is not held either.
+///
+/// State per camera: the previous output's labels and depths and each pixel's still age (9
+/// bytes per pixel, 2.8 MB for 640 x 480), an id per previous object and a counter per pair of
+/// previous objects merged in the last frame and per previous object split in it. Reset by Reset(),
+/// a frame sequence number that does not increase, or a change of image size.
+///
+/// Organized clouds only (an unorganized cloud is passed through and resets the state).
+/// Objects are renumbered 1..n and their statistics recomputed (ObjectExtractor) when a frame
+/// changes. Deterministic: the output depends only on the frames given and their order.
+/// Thread-safety: not reentrant; one Apply at a time, in frame order.
+class PartitionPrior {
+ public:
+  /// `band` gives the depth band within which a pixel counts as still (its band_at_1m_m and
+  /// min_band_m). @throws std::invalid_argument when `params` fail validation.
+  PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band);
+  ~PartitionPrior();
+  PartitionPrior(const PartitionPrior&) = delete;
+  PartitionPrior& operator=(const PartitionPrior&) = delete;
+
+  /// Applies the hysteresis to `result`, the segmentation of `cloud` (same layout as its
+  /// labels), frame number `frame_seq`. Returns true when it changed the labels (and then the
+  /// objects, renumbered and recomputed). Never throws except std::bad_alloc.
+  bool Apply(const core::PointCloudView& cloud, int64_t frame_seq, SegmentationResult* result);
+
+  /// Forgets the previous frames.
+  void Reset();
+
+  const PartitionPriorParams& params() const { return params_; }
+  const PartitionPriorCounts& counts() const { return counts_; }
+  /// Bytes of per-pixel state held for the current image size.
+  size_t memory_bytes() const;
+
+ private:
+  struct PairCount {
+    uint32_t a, b;  // ids of previous objects, a < b
+    int count;
+  };
+  struct IdCount {
+    uint32_t id;
+    int count;
+  };
+  bool Still(float z, float z_prev) const;
+  void Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
+                const std::vector<uint32_t>& counts, bool have_counts);
+  static int Find(std::vector<int>* parent, int x);
+
+  PartitionPriorParams params_;
+  float band_at_1m_m_;
+  float min_band_m_;
+  PartitionPriorCounts counts_;
+  ObjectExtractor extractor_;
+
+  bool have_prev_{false};
+  int64_t prev_seq_{0};
+  int width_{0}, height_{0};
+  std::vector<uint32_t> prev_labels_;
+  std::vector<float> prev_z_;
+  std::vector<uint8_t> still_age_;  // frames in a row each pixel has been still (to 255)
+  std::vector<uint32_t> prev_id_;   // id of each previous object, by label (0 unused)
+  uint32_t next_id_{1};
+  std::vector<PairCount> merges_;  // by (a, b)
+  std::vector<IdCount> splits_;    // by id
+
+  // Per-frame work buffers.
+  std::vector<uint32_t> counts_rp_;  // (segment) x (previous label) still pixels
+  std::vector<uint32_t> valid_r_, still_r_, still_p_, established_p_;
+  std::vector<int> covered_n_;  // previous objects each segment covers
+  std::vector<PairCount> new_merges_;
+  std::vector<IdCount> new_splits_;
+  std::vector<uint32_t> map_;                 // label -> output label before compaction
+  std::vector<std::vector<uint32_t>> split_;  // per segment cut: previous label -> new label
+  std::vector<uint32_t> out_labels_;
+  std::vector<uint32_t> pending_, pending_next_, taken_;
+};
+
+}  // namespace clutterseg::pipeline
