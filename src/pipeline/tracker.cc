@@ -85,6 +85,8 @@ void TrackerParams::ValidateOrThrow() const {
   check.InRange("reacquire_min_box_inside", reacquire_min_box_inside, 0.f, 1.f);
   check.InRange("reference_decay", reference_decay, 0.f, 1.f);
   check.InRange("part_min_fraction", part_min_fraction, 0.5f, 1.f);
+  check.Require(split_own_margin_m >= 0.f && split_own_margin_m <= 1.f, "split_own_margin_m",
+                split_own_margin_m, "a distance in [0, 1] m (0 = off)");
   check.InRange("mask_weight", mask_weight, 0.f, 1.f);
   check.Require(lost_score_factor > 0.f && lost_score_factor <= 1.f, "lost_score_factor",
                 lost_score_factor, "a factor in (0, 1]");
@@ -103,6 +105,7 @@ struct Tracker::Impl {
     Box box;
     float ref_points{0.f};  // decayed point count of the reference view
     Box ref_box;
+    core::Vec3f own_centroid;  // of its last view that held no other track
   };
 
   explicit Impl(const TrackerParams& p) : params(p) { params.ValidateOrThrow(); }
@@ -132,6 +135,7 @@ struct Tracker::Impl {
   std::vector<uint32_t> prev_size, cur_size;
   std::vector<double> score, cost;
   std::vector<int32_t> row_to_col, det_track;
+  std::vector<uint8_t> merged_det;
   std::vector<Track> kept;
   optimize::AssignmentSolver solver;
 };
@@ -253,8 +257,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
   }
 
+  merged_det.assign(static_cast<size_t>(num_dets), 0);
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
-  // the part with the most points keeps it. Merges: a track whose previous mask lies mostly
+  // the part with the most points keeps it (with split_own_margin_m, the part nearest the
+  // track's own centroid, when clearly nearest). Merges: a track whose previous mask lies mostly
   // on one object is absorbed by it; only the largest of those tracks keeps the object.
   if (overlap) {
     for (int r = 0; r < num_tracks; ++r) {
@@ -272,7 +278,15 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         }
         const Object& o = frame.objects[static_cast<size_t>(d)];
         const Object& b = frame.objects[static_cast<size_t>(best)];
-        if (o.num_points > b.num_points || (o.num_points == b.num_points && i > inter(t, best))) {
+        const float near_o = Distance(o.centroid, t.own_centroid);
+        const float near_b = Distance(b.centroid, t.own_centroid);
+        const float margin = params.split_own_margin_m;
+        const bool own = margin > 0.f;
+        if (own && near_o + margin < near_b) {
+          best = d;
+        } else if ((!own || near_b + margin >= near_o) &&
+                   (o.num_points > b.num_points ||
+                    (o.num_points == b.num_points && i > inter(t, best)))) {
           best = d;
         }
       }
@@ -306,6 +320,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       }
       if (absorbed < 2) continue;
       ++out->counts.merges;
+      merged_det[static_cast<size_t>(d)] = 1;
       for (int r = 0; r < num_tracks; ++r) {
         const Track& t = tracks[static_cast<size_t>(r)];
         if (r == best || t.prev_label == 0) continue;
@@ -333,6 +348,20 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     det_track[static_cast<size_t>(d)] = r;
   }
 
+  // Whether object `o`, matched to track `r`, holds a remembered track's own last view (a
+  // merge that goes on after the frame it began in).
+  auto HoldsRememberedTrack = [&](const Object& o, int r) {
+    const Box box{o.aabb_min, o.aabb_max};
+    for (int q = 0; q < num_tracks; ++q) {
+      if (q == r || row_to_col[static_cast<size_t>(q)] >= 0) continue;
+      const Track& l = tracks[static_cast<size_t>(q)];
+      const int memory = l.confirmed ? params.memory_frames : params.tentative_memory_frames;
+      if (seq - l.last_seq > memory) continue;
+      if (DistanceToBox(l.own_centroid, box) == 0.f) return true;
+    }
+    return false;
+  };
+
   // Update the matched tracks, age the others, end the expired ones.
   kept.clear();
   for (int r = 0; r < num_tracks; ++r) {
@@ -349,6 +378,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       t.num_points = o.num_points;
       t.centroid = o.centroid;
       t.box = Box{o.aabb_min, o.aabb_max};
+      if (params.split_own_margin_m <= 0.f ||
+          (!merged_det[static_cast<size_t>(d)] && !HoldsRememberedTrack(o, r))) {
+        t.own_centroid = o.centroid;
+      }
       t.ref_points *= params.reference_decay;
       if (static_cast<float>(o.num_points) >= t.ref_points) {
         t.ref_points = static_cast<float>(o.num_points);
@@ -387,6 +420,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     t.box = Box{o.aabb_min, o.aabb_max};
     t.ref_points = static_cast<float>(o.num_points);
     t.ref_box = t.box;
+    t.own_centroid = o.centroid;
     ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
     ot.track_id = t.id;
     ot.age_frames = 0;

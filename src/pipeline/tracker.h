@@ -57,6 +57,12 @@ struct TrackerParams {
   /// recent view, see reference_decay; then by overlap) keeps the object and the others become
   /// lost-but-remembered (0.5..1).
   float part_min_fraction{0.5f};
+  /// Splits: when > 0, the part whose centroid lies nearer by more than this (metres) to the
+  /// track's own last centroid keeps the track, parts within it of each other leaving it to
+  /// the one with more points; a track's own centroid is that of its last view that absorbed
+  /// no other track and held no remembered one (so after a merge comes apart each object
+  /// gets its own id back). 0 = off: the part with the most points keeps it.
+  float split_own_margin_m{0.0f};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
   /// rest goes in equal parts to centroid proximity and 3-D box IoU (0..1).

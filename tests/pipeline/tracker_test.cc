@@ -225,6 +225,35 @@ TEST_F(TrackerTest, MergeKeepsTheLargerTrackAndTheOtherComesBackOnSeparation) {
   EXPECT_EQ(apart.counts.splits, 1);
 }
 
+// Two objects of about one size merge (the larger track keeps the merged object) and come
+// apart with the other one now the larger part. By default the merged track may only go to the
+// larger part, the other object's, and one of them loses its id; with split_own_margin_m each
+// object gets its own id back.
+TEST(TrackerSplitOwnPart, AMergeThatComesApartGivesEachObjectItsOwnId) {
+  const Rect a{10, 10, 30, 30}, b{30, 10, 51, 30}, merged{10, 10, 51, 30};
+  const Rect a_after{10, 10, 32, 30}, b_after{32, 10, 51, 30};  // a now the larger part
+  for (const float margin : {0.f, 0.01f}) {
+    TrackerParams p;
+    p.split_own_margin_m = margin;
+    Tracker dut(p);
+    TrackingResult out;
+    int64_t seq = 0;
+    for (int f = 0; f < 4; ++f) dut.Update(MakeFrame({a, b}), seq++, &out);
+    ASSERT_EQ(Ids(out), (std::vector<int64_t>{1, 2}));
+    for (int f = 0; f < 2; ++f) dut.Update(MakeFrame({merged}), seq++, &out);
+    ASSERT_EQ(Ids(out), (std::vector<int64_t>{2})) << "b is the larger track";
+    dut.Update(MakeFrame({a_after, b_after}), seq++, &out);
+    if (margin > 0.f) {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{1, 2}));
+      EXPECT_TRUE(out.objects[0].reacquired);
+    } else {
+      // The merged track may go to the larger part only, which reacquires its own remembered
+      // id instead: the smaller part, b, starts a new track.
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{1, 3}));
+    }
+  }
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
