@@ -108,7 +108,6 @@ struct Daemon::Impl {
   std::unique_ptr<pipeline::TemporalFilterParams> pending_temporal_params;  // applied next
   // The partition prior: applied in the ordered completion (frame order), streams only.
   std::unique_ptr<pipeline::PartitionPrior> partition;  // ordered completion only
-  pipeline::TemporalFilterParams partition_band;        // the band it was made with
   std::mutex partition_params_mutex;
   std::unique_ptr<pipeline::SegmenterParams> pending_partition_params;  // applied next
   pipeline::FrameRunner runner;  // last: its lanes use everything above
@@ -345,11 +344,12 @@ struct Daemon::Impl {
   void SetPartitionPrior(const pipeline::SegmenterParams& params) {
     const pipeline::SegmenterParams p =
         pipeline::ForDecimatedFrames(params, config.camera.decimation);
-    if (partition && p.partition == partition->params() && p.temporal == partition_band) return;
+    if (partition && p.partition == partition->params() && p.temporal == partition->band()) {
+      return;
+    }
     partition.reset();
     if (stream_source && p.partition.hold_frames > 1) {
       partition = std::make_unique<pipeline::PartitionPrior>(p.partition, p.temporal);
-      partition_band = p.temporal;
     }
   }
 

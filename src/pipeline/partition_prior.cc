@@ -38,9 +38,7 @@ void PartitionPriorParams::ValidateOrThrow() const {
 }
 
 PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_((params.ValidateOrThrow(), params)),
-      band_at_1m_m_(band.band_at_1m_m),
-      min_band_m_(band.min_band_m) {}
+    : params_((params.ValidateOrThrow(), params)), band_(band) {}
 
 PartitionPrior::~PartitionPrior() = default;
 
@@ -57,7 +55,7 @@ size_t PartitionPrior::memory_bytes() const {
 
 bool PartitionPrior::Still(float z, float z_prev) const {
   // NaN (no measurement) in either frame is not still.
-  const float band = std::max(min_band_m_, band_at_1m_m_ * z * z);
+  const float band = std::max(band_.min_band_m, band_.band_at_1m_m * z * z);
   return std::abs(z - z_prev) <= band;
 }
 
@@ -145,8 +143,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   if (split_.size() < n + 1) split_.resize(n + 1);
   for (auto& s : split_) s.clear();
   uint32_t next_label = n + 1;
-  std::vector<uint32_t> covered;
-  std::vector<int> parent;
+  std::vector<uint32_t>& covered = covered_;
+  std::vector<int>& parent = parent_;
   for (uint32_t r = 1; r <= n; ++r) {
     covered.clear();
     for (uint32_t p = 1; p <= m; ++p) {
@@ -178,7 +176,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     }
     // One output object per group of joined previous objects; the group holding the most
     // still pixels of the segment keeps its label.
-    std::vector<uint32_t> group_px(covered.size(), 0u);
+    std::vector<uint32_t>& group_px = group_px_;
+    group_px.assign(covered.size(), 0u);
     for (size_t k = 0; k < covered.size(); ++k) {
       group_px[static_cast<size_t>(Find(&parent, static_cast<int>(k)))] +=
           counts_rp_[r * stride + covered[k]];
@@ -198,7 +197,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     ++counts_.held_merges;
     std::vector<uint32_t>& to = split_[r];
     to.assign(m + 1, 0u);
-    std::vector<uint32_t> group_label(covered.size(), 0u);
+    std::vector<uint32_t>& group_label = group_label_;
+    group_label.assign(covered.size(), 0u);
     for (size_t k = 0; k < covered.size(); ++k) {
       if (Find(&parent, static_cast<int>(k)) != static_cast<int>(k)) continue;
       group_label[k] = static_cast<int>(k) == keeper ? r : next_label++;
@@ -293,8 +293,10 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   for (const uint32_t i : pending_) out_labels_[i] = labels[i];  // unreached: the keeper's
 
   // Compaction: labels in order, the cut parts after the segments.
-  std::vector<uint32_t> final_label(next_label, 0u);
-  std::vector<uint8_t> used(next_label, 0u);
+  std::vector<uint32_t>& final_label = final_label_;
+  std::vector<uint8_t>& used = used_;
+  final_label.assign(next_label, 0u);
+  used.assign(next_label, 0u);
   for (size_t i = 0; i < num_pixels; ++i) used[out_labels_[i]] = 1;
   uint32_t count = 0;
   for (uint32_t l = 1; l < next_label; ++l) {
@@ -304,7 +306,10 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   for (size_t i = 0; i < num_pixels; ++i) out[i] = final_label[out_labels_[i]];
   result->objects.assign(count, Object{});
   for (uint32_t k = 0; k < count; ++k) result->objects[k].id = k + 1;
+  // The stage time stays the segmenter's; the recomputation is this step's time.
+  const double segmenter_objects_ms = result->times[Stage::kObjects];
   extractor_.Compute(cloud, result);
+  result->times[Stage::kObjects] = segmenter_objects_ms;
 
   // The output against the previous frame, for the ids the next frame's counts refer to.
   const uint32_t n_out = count;
@@ -325,34 +330,31 @@ void PartitionPrior::Remember(const core::PointCloudView& cloud, const Segmentat
   // Ids: an object takes the id of the previous object holding most of its still pixels
   // (at least half of them), and the previous object's largest share decides between two
   // claimants; the rest get new ids.
-  std::vector<uint32_t> id(n + 1, 0u);
+  std::vector<uint32_t>& id = id_work_;
+  id.assign(n + 1, 0u);
   if (have_counts && have_prev_) {
     const uint32_t m = static_cast<uint32_t>(prev_id_.size() - 1);
     const size_t stride = m + 1;
-    std::vector<uint32_t> best_p(n + 1, 0u), best_c(n + 1, 0u);
-    std::vector<uint32_t> owner(m + 1, 0u), owner_c(m + 1, 0u);
+    owner_.assign(m + 1, 0u);
+    owner_count_.assign(m + 1, 0u);
     for (uint32_t o = 1; o <= n; ++o) {
-      uint32_t total = 0;
+      uint32_t total = 0, best_p = 0, best_c = 0;
       for (uint32_t p = 0; p <= m; ++p) {
         const uint32_t c = counts[o * stride + p];
         total += c;
-        if (p >= 1 && c > best_c[o]) {
-          best_c[o] = c;
-          best_p[o] = p;
+        if (p >= 1 && c > best_c) {
+          best_c = c;
+          best_p = p;
         }
       }
-      if (best_p[o] == 0 || 2 * best_c[o] < total) {
-        best_p[o] = 0;
-        continue;
-      }
-      const uint32_t p = best_p[o];
-      if (owner[p] == 0 || best_c[o] > owner_c[p]) {
-        owner[p] = o;
-        owner_c[p] = best_c[o];
+      if (best_p == 0 || 2 * best_c < total) continue;
+      if (owner_[best_p] == 0 || best_c > owner_count_[best_p]) {
+        owner_[best_p] = o;
+        owner_count_[best_p] = best_c;
       }
     }
     for (uint32_t p = 1; p <= m; ++p) {
-      if (owner[p] != 0) id[owner[p]] = prev_id_[p];
+      if (owner_[p] != 0) id[owner_[p]] = prev_id_[p];
     }
   }
   for (uint32_t o = 1; o <= n; ++o) {

@@ -89,6 +89,8 @@ class PartitionPrior {
   void Reset();
 
   const PartitionPriorParams& params() const { return params_; }
+  /// The temporal filter parameters whose band it was made with.
+  const TemporalFilterParams& band() const { return band_; }
   const PartitionPriorCounts& counts() const { return counts_; }
   /// Bytes of per-pixel state held for the current image size.
   size_t memory_bytes() const;
@@ -108,8 +110,7 @@ class PartitionPrior {
   static int Find(std::vector<int>* parent, int x);
 
   PartitionPriorParams params_;
-  float band_at_1m_m_;
-  float min_band_m_;
+  TemporalFilterParams band_;  // its band_at_1m_m and min_band_m
   PartitionPriorCounts counts_;
   ObjectExtractor extractor_;
 
@@ -133,6 +134,13 @@ class PartitionPrior {
   std::vector<uint32_t> map_;                 // label -> output label before compaction
   std::vector<std::vector<uint32_t>> split_;  // per segment cut: previous label -> new label
   std::vector<uint32_t> out_labels_;
+  std::vector<uint32_t> covered_;                 // previous objects one segment covers
+  std::vector<int> parent_;                       // union-find over them
+  std::vector<uint32_t> group_px_, group_label_;  // per group of them: pixels, output label
+  std::vector<uint32_t> final_label_;
+  std::vector<uint8_t> used_;
+  std::vector<uint32_t> id_work_;              // ids of this frame's objects, by label
+  std::vector<uint32_t> owner_, owner_count_;  // per previous object: its claimant
   std::vector<uint32_t> pending_, pending_next_, taken_;
 };
 

@@ -190,6 +190,16 @@ TEST(PartitionPrior, OffUnorganizedOrARestartedStreamChangesNothing) {
   EXPECT_EQ(prior.memory_bytes(), 0u);
 }
 
+TEST(PartitionPrior, ARecomputedFrameKeepsTheSegmentersObjectsTime) {
+  PartitionPrior prior(Hold(3), TemporalFilterParams{});
+  const core::PointCloud cloud = Scene();
+  Establish(&prior, cloud);
+  SegmentationResult r = Merged();
+  r.times[Stage::kObjects] = 1234.5;
+  ASSERT_TRUE(prior.Apply(cloud, 5, &r));
+  EXPECT_EQ(r.times[Stage::kObjects], 1234.5);
+}
+
 TEST(PartitionPrior, RefusesBadParameters) {
   PartitionPriorParams p;
   p.hold_frames = 0;

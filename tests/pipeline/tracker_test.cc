@@ -368,6 +368,9 @@ TEST(TrackerParams, ValidationNamesTheKey) {
   p.reference_decay = -0.1f;
   expect_key(p, "reference_decay");
   p = {};
+  p.split_own_margin_m = -0.01f;
+  expect_key(p, "split_own_margin_m");
+  p = {};
   p.part_min_fraction = 0.4f;
   expect_key(p, "part_min_fraction");
   p = {};
