@@ -165,6 +165,15 @@ printf 'processing:\n  pipeline_depth: 3\n' > "$work/cell_left.yaml"
 grep -q '^camera_name: cell_left$' "$work/cell_left.txt" || fail "template instance camera_name"
 grep -q '^  pipeline_depth: 3$' "$work/cell_left.txt" || fail "template instance: NAME.yaml not applied"
 grep -q '^  realtime_priority: 10$' "$work/cell_left.txt" || fail "template instance: realtime_priority"
+grep -q '^  decimation: 2$' "$work/cell_left.txt" || fail "template instance: camera.decimation"
+# A host with a core per camera gives an instance full resolution back in its own file.
+printf 'camera:\n  decimation: 1\n' > "$work/cell_right.yaml"
+args_right=$(sed -n "s#^ExecStart=$prefix/bin/clutterseg ##p" "$template" | sed -e "s#%i#cell_right#g" \
+  -e "s#/etc/clutterseg/#$work/#g")
+# shellcheck disable=SC2086  # the unit's arguments are words
+"$p/bin/clutterseg" $args_right --print-config > "$work/cell_right.txt" ||
+  fail "template instance --print-config (cell_right)"
+grep -q '^  decimation: 1$' "$work/cell_right.txt" || fail "template instance: NAME.yaml's camera.decimation"
 grep -q '^LimitRTPRIO=11$' "$template" || fail "template unit: LimitRTPRIO"
 grep -q '^RestrictRealtime=yes$' "$unit" || fail "unit: RestrictRealtime"
 if command -v systemd-analyze > /dev/null; then

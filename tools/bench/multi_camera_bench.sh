@@ -7,7 +7,8 @@
 # A run meets the bar when every camera has 0 gaps, 0 dropped and p99 <= the 33 ms period.
 # Usage: tools/bench/multi_camera_bench.sh [BUILD_DIR] [FRAMES] RECORDING.oni...
 #   BUILD_DIR defaults to build/release, FRAMES (published per camera) to 600.
-#   DAEMON_ARGS adds options to every daemon (e.g. "--threads 1 --set processing.pipeline_depth=2").
+#   DAEMON_ARGS adds options to every daemon; the template unit clutterseg@.service runs each with
+#   "--threads 1 --set processing.realtime_priority=10 --set camera.decimation=2".
 #   WARMUP (default 30) frames per camera are left out of the percentiles.
 #   STAGGER_MS (default 0) waits this long between two daemons' starts: free-running cameras
 #   deliver their frames at unrelated phases, daemons started together replay theirs at

@@ -112,8 +112,10 @@ configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
 # the file names another camera_name. The --default values are the settings measured for
 # three cameras on a 2-core host (docs/daemon.md); NAME.yaml overrides any of them.
 set(CLUTTERSEG_UNIT_DESCRIPTION "clutterseg segmentation daemon of camera %i (LCM publisher)")
-set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/%i.yaml --default camera_name=%i --default processing.threads=1 --default processing.realtime_priority=10")
+set(CLUTTERSEG_UNIT_ARGS "--config ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/%i.yaml --default camera_name=%i --default processing.threads=1 --default processing.realtime_priority=10 --default camera.decimation=2")
 # processing.realtime_priority 10: the lanes at SCHED_FIFO 10, the capture path at 11.
+# camera.decimation 2: each camera processed at 320x240, so that three cameras keep their
+# latency on two cores also when the host runs slower (docs/daemon.md, docs/results.md).
 string(JOIN "\n" CLUTTERSEG_UNIT_REALTIME
        "# Real-time scheduling (processing.realtime_priority, default 10 here): the lanes at"
        "# SCHED_FIFO 10, the capture path and publisher at 11. The kernel keeps 5 % of each"
@@ -125,7 +127,10 @@ string(JOIN "\n" CLUTTERSEG_UNIT_USAGE
        "# This is the template clutterseg@.service: instance NAME reads"
        "# ${CMAKE_INSTALL_FULL_SYSCONFDIR}/clutterseg/NAME.yaml (give each its camera.serial)."
        "# Enable with `systemctl enable --now clutterseg@left clutterseg@right`; after editing a"
-       "# file, `systemctl reload clutterseg@left` re-reads its segmentation parameters.")
+       "# file, `systemctl reload clutterseg@left` re-reads its segmentation parameters."
+       "# The --default values below (one thread, frames at 320x240, SCHED_FIFO 10) are sized for"
+       "# three cameras on two cores; NAME.yaml overrides them (camera.decimation: 1 gives full"
+       "# resolution back where the host has a core per camera).")
 configure_file("${PROJECT_SOURCE_DIR}/config/clutterseg.service.in"
                "${PROJECT_BINARY_DIR}/clutterseg@.service" @ONLY)
 install(FILES "${PROJECT_BINARY_DIR}/clutterseg.service" "${PROJECT_BINARY_DIR}/clutterseg@.service"
