@@ -66,6 +66,11 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(linkage, color_threshold),
       CLUTTERSEG_SEGMENTER_KEY(linkage, color_min_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(linkage, color_concavity_tolerance_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_max_edges),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_min_crease_ratio),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_min_supervoxels),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_max_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_max_concave_share),
 
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_angle_deg),

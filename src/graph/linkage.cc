@@ -388,6 +388,8 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
     }
   }
 
+  if (params_.bridge_max_edges > 0) CutBridges(sv, f, out);
+
   // Connected components over kept edges.
   parent_.resize(n);
   for (size_t i = 0; i < n; ++i) parent_[i] = static_cast<int32_t>(i);
@@ -754,6 +756,177 @@ void Linkage::MeanChroma(const supervoxel::Supervoxels& sv, const core::PointClo
     mean_chroma_[3 * i] = static_cast<float>(255.0 * static_cast<double>(r) / sum);
     mean_chroma_[3 * i + 1] = static_cast<float>(255.0 * static_cast<double>(g) / sum);
     mean_chroma_[3 * i + 2] = static_cast<float>(255.0 * static_cast<double>(bl) / sum);
+  }
+}
+
+bool Linkage::ConcaveSide(uint32_t concave, uint32_t kept) const {
+  return static_cast<float>(concave) > params_.bridge_max_concave_share * static_cast<float>(kept);
+}
+
+void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
+                         LinkageResult* out) {
+  const size_t n = sv.size();
+  const auto& off = sv.adjacency_offsets;
+  const auto& adj = sv.adjacency;
+  std::vector<uint8_t>& kept = out->edge_kept;
+  // Components over the kept edges; a side cut off later gets a new id.
+  std::vector<int32_t>& comp = bridge_comp_;
+  comp.resize(n);
+  for (size_t i = 0; i < n; ++i) comp[i] = static_cast<int32_t>(i);
+  for (size_t i = 0; i < n; ++i) {
+    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
+      if (!kept[s] || adj[s] < i) continue;
+      const int32_t a = Find(comp, static_cast<int32_t>(i));
+      const int32_t b = Find(comp, static_cast<int32_t>(adj[s]));
+      if (a != b) comp[std::max(a, b)] = std::min(a, b);
+    }
+  }
+  for (size_t i = 0; i < n; ++i) comp[i] = Find(comp, static_cast<int32_t>(i));
+  int32_t next_comp = static_cast<int32_t>(n);
+
+  bridge_mark_.assign(n, 0u);
+  bridge_from_slot_.resize(n);
+  bridge_from_node_.resize(n);
+  bridge_flow_.assign(adj.size(), 0);
+  uint32_t mark = 0;
+  const auto max_flow = static_cast<int>(params_.bridge_max_edges);
+  const auto min_side = static_cast<size_t>(params_.bridge_min_supervoxels);
+  const float min_cos =
+      static_cast<float>(std::cos(double{params_.bridge_max_angle_deg} / kRadToDeg));
+  const auto concave = [&](uint32_t a, uint32_t b) {
+    const core::Vec3f& ni = f.normal[a];
+    const core::Vec3f& nj = f.normal[b];
+    const core::Vec3f& ci = f.centroid[a];
+    const core::Vec3f& cj = f.centroid[b];
+    return (ni.x - nj.x) * (ci.x - cj.x) + (ni.y - nj.y) * (ci.y - cj.y) +
+               (ni.z - nj.z) * (ci.z - cj.z) <
+           0.f;
+  };
+  std::vector<uint32_t>& queue = bridge_queue_;
+
+  for (size_t i0 = 0; i0 < n; ++i0) {
+    const auto i = static_cast<uint32_t>(i0);
+    for (uint32_t s0 = off[i]; s0 < off[i + 1]; ++s0) {
+      const uint32_t j = adj[s0];
+      // Tested from the crease edges (concave beyond the tolerance) inside a component.
+      if (j < i || edge_class_[s0] != kSharpConcave || kept[s0] || comp[i] != comp[j]) continue;
+      // Common neighbours joined to both by kept edges are edge-disjoint paths of two edges:
+      // more of them than bridge_max_edges settle it without a search.
+      int common = 0;
+      for (uint32_t sa = off[i], sb = off[j]; sa < off[i + 1] && sb < off[j + 1];) {
+        if (adj[sa] < adj[sb]) {
+          ++sa;
+        } else if (adj[sb] < adj[sa]) {
+          ++sb;
+        } else {
+          common += kept[sa] && kept[sb] ? 1 : 0;
+          ++sa;
+          ++sb;
+        }
+      }
+      if (common > max_flow) continue;
+      // Augmenting paths from i to j over kept edges of unit capacity in each direction, up to
+      // one more than the widest bridge allowed.
+      int flow = 0;
+      bool reached = false;
+      bridge_touched_.clear();
+      while (true) {
+        ++mark;
+        queue.clear();
+        queue.push_back(i);
+        bridge_mark_[i] = mark;
+        reached = false;
+        for (size_t q = 0; q < queue.size() && !reached; ++q) {
+          const uint32_t a = queue[q];
+          for (uint32_t s = off[a]; s < off[a + 1]; ++s) {
+            const uint32_t b = adj[s];
+            if (!kept[s] || bridge_flow_[s] > 0 || bridge_mark_[b] == mark) continue;
+            bridge_mark_[b] = mark;
+            bridge_from_slot_[b] = s;
+            bridge_from_node_[b] = a;
+            if (b == j) {
+              reached = true;
+              break;
+            }
+            queue.push_back(b);
+          }
+        }
+        if (!reached || flow > max_flow) break;
+        for (uint32_t b = j; b != i; b = bridge_from_node_[b]) {
+          const uint32_t s = bridge_from_slot_[b];
+          ++bridge_flow_[s];
+          --bridge_flow_[reverse_slot_[s]];
+          bridge_touched_.push_back(s);
+          bridge_touched_.push_back(reverse_slot_[s]);
+        }
+        ++flow;
+      }
+      for (const uint32_t s : bridge_touched_) bridge_flow_[s] = 0;
+      if (reached) continue;  // wider than bridge_max_edges
+      // The side of i: what the last search reached (marked `mark`).
+      const uint32_t side_i = mark;
+      const int32_t new_comp = next_comp++;
+      if (flow == 0) {  // already apart (an earlier cut left this component in pieces)
+        for (const uint32_t a : queue) comp[a] = new_comp;
+        continue;
+      }
+      if (queue.size() < min_side) continue;
+      // The side of j: its part of the rest, without crossing into i's side.
+      const size_t i_size = queue.size();
+      ++mark;
+      const uint32_t side_j = mark;
+      queue.push_back(j);
+      bridge_mark_[j] = side_j;
+      uint32_t kept_j = 0, concave_j = 0;
+      for (size_t q = i_size; q < queue.size(); ++q) {
+        const uint32_t a = queue[q];
+        for (uint32_t s = off[a]; s < off[a + 1]; ++s) {
+          const uint32_t b = adj[s];
+          if (!kept[s] || bridge_mark_[b] == side_i) continue;
+          if (b > a) {
+            ++kept_j;
+            concave_j += concave(a, b) ? 1u : 0u;
+          }
+          if (bridge_mark_[b] == side_j) continue;
+          bridge_mark_[b] = side_j;
+          queue.push_back(b);
+        }
+      }
+      if (queue.size() - i_size < min_side || ConcaveSide(concave_j, kept_j)) continue;
+      // Edges between the two sides: the bridge (kept) and the crease (cut); the kept edges
+      // inside i's side.
+      uint32_t crease = 0, kept_i = 0, concave_i = 0;
+      bool sharp = false;
+      bridge_cut_.clear();
+      for (size_t q = 0; q < i_size; ++q) {
+        const uint32_t a = queue[q];
+        for (uint32_t s = off[a]; s < off[a + 1]; ++s) {
+          const uint32_t b = adj[s];
+          if (bridge_mark_[b] == side_i) {
+            if (kept[s] && b > a) {
+              ++kept_i;
+              concave_i += concave(a, b) ? 1u : 0u;
+            }
+          } else if (bridge_mark_[b] == side_j) {
+            if (kept[s]) {
+              bridge_cut_.push_back(s);
+              const core::Vec3f& na = f.normal[a];
+              const core::Vec3f& nb = f.normal[b];
+              sharp = sharp || na.x * nb.x + na.y * nb.y + na.z * nb.z < min_cos;
+            } else {
+              ++crease;
+            }
+          }
+        }
+      }
+      if (sharp || ConcaveSide(concave_i, kept_i) ||
+          static_cast<float>(crease) <
+              params_.bridge_min_crease_ratio * static_cast<float>(bridge_cut_.size())) {
+        continue;
+      }
+      for (const uint32_t s : bridge_cut_) kept[s] = kept[reverse_slot_[s]] = 0;
+      for (size_t q = 0; q < i_size; ++q) comp[queue[q]] = new_comp;
+    }
   }
 }
 

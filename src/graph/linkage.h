@@ -52,14 +52,17 @@ struct LinkageCues {
 /// as initial segments and merges components smaller than `min_segment_supervoxels` into
 /// their largest neighbouring segment. Before the components, optional cues cut edges the
 /// convexity test keeps: crease evidence (graph only), depth jumps across the supervoxels'
-/// border as seen from the camera, and colour (LinkageParams).
+/// border as seen from the camera, and colour (LinkageParams); after them the bridge cut
+/// removes narrow bridges of kept edges between parts that meet along cut edges.
 ///
 /// Output is deterministic and independent of the pool size. Thread-safety: Compute is not
 /// reentrant (reuses work buffers). Complexity: O(supervoxels + edges), plus O(edges * degree)
 /// with extended convexity or crease evidence, plus O(pixels) for depth jumps on an organized
 /// cloud (one pass over the label image in bands of rows on the pool) or O(voxels log voxels)
 /// on an unorganized one (a k-d tree over the voxels' view directions), plus O(points) for
-/// colour. Nothing is allocated once the buffers have grown to the largest frame.
+/// colour, plus for the bridge cut at most bridge_max_edges + 2 breadth-first searches of a
+/// component per crease edge inside it. Nothing is allocated once the buffers have grown to the
+/// largest frame.
 class Linkage {
  public:
   /// `pool` may be null (single-threaded) and must outlive the Linkage.
@@ -101,6 +104,11 @@ class Linkage {
   void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud);
   void CountViewBorderPairs(const supervoxel::Supervoxels& sv, const geometry::VoxelGrid& voxels,
                             const std::vector<int32_t>& voxel_supervoxel);
+  // Bridge cut (LinkageParams::bridge_max_edges): clears out->edge_kept on narrow bridges
+  // between parts of a component that meet along cut edges.
+  void CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures& f, LinkageResult* out);
+  // Share test of bridge_max_concave_share: `concave` of `kept` edges inside a side.
+  bool ConcaveSide(uint32_t concave, uint32_t kept) const;
   // Mean chromaticity per supervoxel (mean_chroma_, 3 per supervoxel).
   void MeanChroma(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud);
   // The supervoxels PrepareCues last ran for, until the Compute that uses its cues.
@@ -124,6 +132,11 @@ class Linkage {
   std::vector<std::vector<uint32_t>> band_rgb_;  // per band: 4 per supervoxel (r, g, b, count)
   std::vector<std::vector<std::pair<uint32_t, float>>> chunk_best_;  // per chunk: (sv, |dz|)
   std::vector<int32_t> parent_;
+  // Bridge cut: component of each supervoxel, BFS marks and parents, flow per slot.
+  std::vector<int32_t> bridge_comp_;
+  std::vector<uint32_t> bridge_mark_, bridge_from_slot_, bridge_from_node_;
+  std::vector<uint32_t> bridge_queue_, bridge_touched_, bridge_cut_;
+  std::vector<int8_t> bridge_flow_;
   std::vector<uint32_t> size_;
   std::vector<int32_t> new_id_;
   std::vector<uint32_t> member_start_;

@@ -18,6 +18,11 @@ void LinkageParams::ValidateOrThrow() const {
   check.InRange("color_threshold", color_threshold, 0.f, 1000.f);
   check.InRange("color_min_angle_deg", color_min_angle_deg, 0.f, 180.f, "deg");
   check.InRange("color_concavity_tolerance_deg", color_concavity_tolerance_deg, 0.f, 180.f, "deg");
+  check.InRange("bridge_max_edges", bridge_max_edges, 0, 64, "(0 = off)");
+  check.InRange("bridge_min_crease_ratio", bridge_min_crease_ratio, 0.f, 1000.f);
+  check.InRange("bridge_min_supervoxels", bridge_min_supervoxels, 1, 1000000);
+  check.InRange("bridge_max_angle_deg", bridge_max_angle_deg, 0.f, 180.f, "deg");
+  check.InRange("bridge_max_concave_share", bridge_max_concave_share, 0.f, 1.f);
 }
 
 }  // namespace clutterseg::graph

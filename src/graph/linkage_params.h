@@ -57,6 +57,28 @@ struct LinkageParams {
   /// (docs/method.md section 7); 60 is the value it was measured with.
   float color_concavity_tolerance_deg{0.0f};
 
+  /// Bridge cut (docs/method.md section 7): two parts of one component of kept edges that
+  /// meet along a crease the linkage cuts, and are held together only by a narrow bridge of
+  /// kept edges elsewhere (a can on a box whose front is flush with the box's, a book against
+  /// a tin joined where their faces continue each other), are cut at the bridge. For every edge
+  /// (i, j) inside one component that the convexity test cuts as concave beyond the tolerance,
+  /// the fewest kept edges that separate i from j are found
+  /// (unit-capacity max-flow over the kept edges); the cut is made when there are at most this
+  /// many (0 = off), ...
+  int bridge_max_edges{2};
+  /// ...the cut edges between the two sides (creases and cue cuts) number at least this many
+  /// times the bridge's edges (dimensionless)...
+  float bridge_min_crease_ratio{3.0f};
+  /// ...each side has at least this many supervoxels (the other side of a piece of rim is
+  /// the rest of its own object)...
+  int bridge_min_supervoxels{8};
+  /// ...every bridge edge joins patches whose normals differ by at most this, degrees (a
+  /// sharp convex edge, such as a rim, is evidence of one object)...
+  float bridge_max_angle_deg{45.0f};
+  /// ...and on neither side are more than this share of the kept edges concave (a concave
+  /// surface is the inside of a vessel, whose crease with its own outside is no contact).
+  float bridge_max_concave_share{0.6f};
+
   /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;
 };

@@ -172,6 +172,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_TRUE(defaults.objects.merge_small_groups);
   EXPECT_GT(defaults.linkage.color_threshold, 0.f);
   EXPECT_EQ(defaults.linkage.color_concavity_tolerance_deg, 0.f);  // measured, not kept
+  EXPECT_GT(defaults.linkage.bridge_max_edges, 0);
   EXPECT_TRUE(defaults.temporal.enabled);
   pipeline::SegmenterParams p;
   LoadSegmenterParams(std::string(CLUTTERSEG_SOURCE_DIR) + "/config/paper.yaml", &p);
@@ -181,6 +182,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_EQ(p.linkage.crease_min_angle_deg, 0.f);
   EXPECT_EQ(p.linkage.color_threshold, 0.f);
   EXPECT_EQ(p.linkage.color_concavity_tolerance_deg, 0.f);
+  EXPECT_EQ(p.linkage.bridge_max_edges, 0);
   EXPECT_EQ(p.objects.plane_merge_max_pair_angle_deg, 180.f);
   EXPECT_EQ(p.objects.support_release_fraction, 0.f);
   EXPECT_EQ(p.objects.support_reclaim_passes, 0);
@@ -198,6 +200,7 @@ TEST(SegmenterKeys, PaperConfigurationTurnsOffEveryAdditionToThePaper) {
   EXPECT_FALSE(q.objects.merge_small_groups);
   EXPECT_EQ(q.linkage.color_threshold, 0.f);
   EXPECT_EQ(q.linkage.color_concavity_tolerance_deg, 0.f);
+  EXPECT_EQ(q.linkage.bridge_max_edges, 0);
   EXPECT_EQ(q.linkage.concavity_tolerance_deg, defaults.linkage.concavity_tolerance_deg);
   EXPECT_EQ(q.supervoxel.growth_regions, defaults.supervoxel.growth_regions);
   EXPECT_EQ(q.planes.inlier_distance_m, defaults.planes.inlier_distance_m);

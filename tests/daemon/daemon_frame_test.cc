@@ -287,13 +287,19 @@ TEST_F(DaemonFrame, ABadExtrinsicsFileExitsTwoNamingTheFileAndField) {
 // camera.decimation = 2 on the real OniFile replay: everything is published at 320x240 with the
 // intrinsics of that image, and the same objects come out where they were at full resolution,
 // each with about a quarter of its points (a few small pieces more); a bad factor exits 2
-// naming the key.
+// naming the key. The bridge cut (segmenter.linkage.bridge_max_edges) is off in both runs: it
+// decides on the supervoxel graph, whose patches hold a quarter of the points at half
+// resolution, and one of these tabletops has a bridge it cuts at one resolution only (its
+// effect on decimated streams is measured in docs/results.md, "Bridge cut").
 TEST_F(DaemonFrame, DecimationPublishesTheSameObjectsAtAQuarterOfThePixels) {
   const std::string full_log = (dir_ / "full.lcmlog").string();
   const std::string half_log = (dir_ / "half.lcmlog").string();
+  const std::vector<std::string> no_bridge = {"--set", "segmenter.linkage.bridge_max_edges=0"};
+  std::vector<std::string> half_args = no_bridge;
+  half_args.insert(half_args.end(), {"--set", "camera.decimation=2"});
   std::string err;
-  ASSERT_EQ(RunDaemon(full_log, {}, &err), kExitOk) << err;
-  ASSERT_EQ(RunDaemon(half_log, {"--set", "camera.decimation=2"}, &err), kExitOk) << err;
+  ASSERT_EQ(RunDaemon(full_log, no_bridge, &err), kExitOk) << err;
+  ASSERT_EQ(RunDaemon(half_log, half_args, &err), kExitOk) << err;
   const auto full = Messages<clutterseg::objects_t>(full_log, "CLUTTERSEG_OBJECTS");
   const auto half = Messages<clutterseg::objects_t>(half_log, "CLUTTERSEG_OBJECTS");
   const auto half_labels = Messages<clutterseg::label_image_t>(half_log, "CLUTTERSEG_LABELS");

@@ -539,6 +539,115 @@ TEST(Linkage, ColourWidensTheConcavityToleranceOnlyBetweenPatchesOfOneColour) {
   EXPECT_EQ(g.Kept(r, 0, 1), 0);  // one colour, but the wider tolerance off
 }
 
+// A floor of 5 x 4 patches and a wall of 5 x 4 standing on it: along four columns the two
+// meet at a sharp crease (cut); along the fifth a rounded corner of two patches (30 degree
+// steps, kept by the concavity tolerance) joins them: one component held by a one-edge bridge.
+// `crease_columns` of the four sharp columns have a floor-wall edge.
+struct BridgeScene {
+  HandGraph g;
+  std::vector<int> floor, wall;
+};
+BridgeScene MakeBridgeScene(int crease_columns) {
+  BridgeScene b;
+  const float rad = 3.14159265f / 180.f;
+  for (int row = 0; row < 4; ++row) {
+    for (int col = 0; col < 5; ++col) {
+      b.floor.push_back(b.g.Add({0.03f * col, 0.3f, 0.98f + 0.03f * row}, kUp, PatchType::kPlanar));
+    }
+  }
+  for (int row = 0; row < 4; ++row) {
+    for (int col = 0; col < 5; ++col) {
+      b.wall.push_back(
+          b.g.Add({0.03f * col, 0.28f - 0.03f * row, 1.1f}, kFacing, PatchType::kPlanar));
+    }
+  }
+  const int a = b.g.Add({0.12f, 0.297f, 1.085f}, {0.f, -std::cos(30 * rad), -std::sin(30 * rad)},
+                        PatchType::kPlanar);
+  const int c = b.g.Add({0.12f, 0.29f, 1.095f}, {0.f, -std::cos(60 * rad), -std::sin(60 * rad)},
+                        PatchType::kPlanar);
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  const auto grid = [&](const std::vector<int>& ids) {
+    for (int row = 0; row < 4; ++row) {
+      for (int col = 0; col < 5; ++col) {
+        const auto i = static_cast<uint32_t>(ids[static_cast<size_t>(row * 5 + col)]);
+        if (col < 4) edges.emplace_back(i, i + 1);
+        if (row < 3) edges.emplace_back(i, i + 5);
+      }
+    }
+  };
+  grid(b.floor);
+  grid(b.wall);
+  for (int col = 0; col < crease_columns; ++col) {  // the floor's last row meets the wall's first
+    edges.emplace_back(static_cast<uint32_t>(b.floor[static_cast<size_t>(15 + col)]),
+                       static_cast<uint32_t>(b.wall[static_cast<size_t>(col)]));
+  }
+  edges.emplace_back(static_cast<uint32_t>(b.floor[19]), static_cast<uint32_t>(a));
+  edges.emplace_back(static_cast<uint32_t>(a), static_cast<uint32_t>(c));
+  edges.emplace_back(static_cast<uint32_t>(c), static_cast<uint32_t>(b.wall[4]));
+  b.g.Connect(edges);
+  return b;
+}
+
+TEST(Linkage, BridgeCutSeparatesPartsHeldOnlyByANarrowBridge) {
+  const BridgeScene b = MakeBridgeScene(4);
+  LinkageParams p;
+  p.bridge_max_edges = 0;
+  LinkageResult r;
+  Linkage(p).Compute(b.g.sv, b.g.f, &r);
+  // Without the cut: the crease is cut, the rounded corner kept, and all is one segment.
+  for (int col = 0; col < 4; ++col) {
+    EXPECT_EQ(b.g.Kept(r, static_cast<uint32_t>(b.floor[static_cast<size_t>(15 + col)]),
+                       static_cast<uint32_t>(b.wall[static_cast<size_t>(col)])),
+              0);
+  }
+  EXPECT_EQ(b.g.Kept(r, 40, 41), 1);  // the corner: patches 40 and 41
+  ASSERT_EQ(r.num_segments, 1);
+  // The defaults cut the bridge: four crease edges against one bridge edge.
+  Linkage(LinkageParams{}).Compute(b.g.sv, b.g.f, &r);
+  ASSERT_EQ(r.num_segments, 2);
+  for (const int i : b.floor) EXPECT_EQ(r.segment[static_cast<size_t>(i)], r.segment[0]);
+  for (const int i : b.wall) EXPECT_NE(r.segment[static_cast<size_t>(i)], r.segment[0]);
+  int cut = 0;
+  for (const auto& [i, j] :
+       std::vector<std::pair<uint32_t, uint32_t>>{{19, 40}, {40, 41}, {41, 24}}) {
+    EXPECT_EQ(b.g.Kept(r, i, j), b.g.Kept(r, j, i));
+    cut += b.g.Kept(r, i, j) == 0 ? 1 : 0;
+  }
+  EXPECT_EQ(cut, 1);  // one edge of the bridge, nothing else
+}
+
+TEST(Linkage, BridgeCutNeedsALongCreaseLargeSidesAndAFlatBridge) {
+  LinkageResult r;
+  {
+    // Two crease edges against one bridge edge: below bridge_min_crease_ratio (3).
+    const BridgeScene b = MakeBridgeScene(2);
+    Linkage(LinkageParams{}).Compute(b.g.sv, b.g.f, &r);
+    EXPECT_EQ(r.num_segments, 1);
+    LinkageParams p;
+    p.bridge_min_crease_ratio = 2.f;
+    Linkage(p).Compute(b.g.sv, b.g.f, &r);
+    EXPECT_EQ(r.num_segments, 2);
+  }
+  const BridgeScene b = MakeBridgeScene(4);
+  LinkageParams p;
+  p.bridge_min_supervoxels = 21;  // the floor (and the corner's patches) are 20-22 supervoxels
+  Linkage(p).Compute(b.g.sv, b.g.f, &r);
+  EXPECT_EQ(r.num_segments, 1);
+  p = LinkageParams{};
+  p.bridge_max_angle_deg = 25.f;  // the corner turns by 30 degrees at every edge
+  Linkage(p).Compute(b.g.sv, b.g.f, &r);
+  EXPECT_EQ(r.num_segments, 1);
+  p = LinkageParams{};
+  // The corner's concave edges are 1 or 2 of the 32 or 33 kept edges of a side: a side is a
+  // concave surface (a vessel's inside) only from a share below that.
+  p.bridge_max_concave_share = 0.02f;
+  Linkage(p).Compute(b.g.sv, b.g.f, &r);
+  EXPECT_EQ(r.num_segments, 1);
+  p.bridge_max_concave_share = 0.1f;
+  Linkage(p).Compute(b.g.sv, b.g.f, &r);
+  EXPECT_EQ(r.num_segments, 2);
+}
+
 TEST(Linkage, IdenticalForAnyThreadCount) {
   const SceneLinkage s = MakeScene();
   LinkageParams p;
