@@ -175,6 +175,18 @@ ConnectionClass ClassifyConnection(const core::Vec3f& ci, const core::Vec3f& ni,
   return concave && normal_angle_deg() >= crease_min_deg ? kMildConcave : kConvex;
 }
 
+// Patches i and j face each other: (n_i - n_j) . (c_i - c_j) < 0, without tolerance or
+// sanity (the sign of the convexity test).
+bool FaceEachOther(const PatchFeatures& f, uint32_t i, uint32_t j) {
+  const core::Vec3f& ni = f.normal[i];
+  const core::Vec3f& nj = f.normal[j];
+  const core::Vec3f& ci = f.centroid[i];
+  const core::Vec3f& cj = f.centroid[j];
+  return (ni.x - nj.x) * (ci.x - cj.x) + (ni.y - nj.y) * (ci.y - cj.y) +
+             (ni.z - nj.z) * (ci.z - cj.z) <
+         0.f;
+}
+
 }  // namespace
 
 bool IsConvexConnection(const core::Vec3f& ci, const core::Vec3f& ni, const core::Vec3f& cj,
@@ -324,12 +336,8 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
           if (!cut && color) {
             const core::Vec3f& ni = f.normal[i];
             const core::Vec3f& nj = f.normal[j];
-            const core::Vec3f& ci = f.centroid[i];
-            const core::Vec3f& cj = f.centroid[j];
             const float cos_a = ni.x * nj.x + ni.y * nj.y + ni.z * nj.z;
-            const float conv = (ni.x - nj.x) * (ci.x - cj.x) + (ni.y - nj.y) * (ci.y - cj.y) +
-                               (ni.z - nj.z) * (ci.z - cj.z);
-            if (cos_a <= cos_color && conv < 0.f) {
+            if (cos_a <= cos_color && FaceEachOther(f, static_cast<uint32_t>(i), j)) {
               const float* p = &mean_chroma_[3 * i];
               const float* q = &mean_chroma_[3 * j];
               const float d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) +
@@ -793,15 +801,6 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
   const auto min_side = static_cast<size_t>(params_.bridge_min_supervoxels);
   const float min_cos =
       static_cast<float>(std::cos(double{params_.bridge_max_angle_deg} / kRadToDeg));
-  const auto concave = [&](uint32_t a, uint32_t b) {
-    const core::Vec3f& ni = f.normal[a];
-    const core::Vec3f& nj = f.normal[b];
-    const core::Vec3f& ci = f.centroid[a];
-    const core::Vec3f& cj = f.centroid[b];
-    return (ni.x - nj.x) * (ci.x - cj.x) + (ni.y - nj.y) * (ci.y - cj.y) +
-               (ni.z - nj.z) * (ci.z - cj.z) <
-           0.f;
-  };
   std::vector<uint32_t>& queue = bridge_queue_;
 
   for (size_t i0 = 0; i0 < n; ++i0) {
@@ -863,13 +862,9 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
       }
       for (const uint32_t s : bridge_touched_) bridge_flow_[s] = 0;
       if (reached) continue;  // wider than bridge_max_edges
-      // The side of i: what the last search reached (marked `mark`).
+      // The side of i: what the last search reached (marked `mark`). A cut removes every kept
+      // edge between its two sides, so the components stay exact and i and j are joined.
       const uint32_t side_i = mark;
-      const int32_t new_comp = next_comp++;
-      if (flow == 0) {  // already apart (an earlier cut left this component in pieces)
-        for (const uint32_t a : queue) comp[a] = new_comp;
-        continue;
-      }
       if (queue.size() < min_side) continue;
       // The side of j: its part of the rest, without crossing into i's side.
       const size_t i_size = queue.size();
@@ -885,7 +880,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
           if (!kept[s] || bridge_mark_[b] == side_i) continue;
           if (b > a) {
             ++kept_j;
-            concave_j += concave(a, b) ? 1u : 0u;
+            concave_j += FaceEachOther(f, a, b) ? 1u : 0u;
           }
           if (bridge_mark_[b] == side_j) continue;
           bridge_mark_[b] = side_j;
@@ -905,7 +900,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
           if (bridge_mark_[b] == side_i) {
             if (kept[s] && b > a) {
               ++kept_i;
-              concave_i += concave(a, b) ? 1u : 0u;
+              concave_i += FaceEachOther(f, a, b) ? 1u : 0u;
             }
           } else if (bridge_mark_[b] == side_j) {
             if (kept[s]) {
@@ -925,6 +920,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
         continue;
       }
       for (const uint32_t s : bridge_cut_) kept[s] = kept[reverse_slot_[s]] = 0;
+      const int32_t new_comp = next_comp++;
       for (size_t q = 0; q < i_size; ++q) comp[queue[q]] = new_comp;
     }
   }
