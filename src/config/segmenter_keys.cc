@@ -71,6 +71,9 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_min_supervoxels),
       CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_max_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(linkage, bridge_max_concave_share),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, contact_cut_max_pairs),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, contact_cut_max_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(linkage, contact_cut_min_supervoxels),
 
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_distance_m),
       CLUTTERSEG_SEGMENTER_KEY(planes, inlier_angle_deg),

@@ -21,6 +21,10 @@ constexpr size_t kNodeGrain = 512;
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 constexpr float kNever = std::numeric_limits<float>::infinity();
 constexpr size_t kRowGrain = 32;  // rows per band of the image border pass
+// The bridge cut's searches scan at most this many adjacency slots per slot of the graph in
+// a frame. Real and synthetic frames need 0.3-21 (mOSD, synthetic rooms and piles); a frame
+// of garbage depth (corrupt recording data) needed 2600, 4 s on one thread, before the bound.
+constexpr size_t kBridgeWorkPerSlot = 64;
 constexpr size_t kVoxelGrain = 2048;
 
 int32_t Find(std::vector<int32_t>& parent, int32_t x) {
@@ -32,6 +36,26 @@ int32_t Find(std::vector<int32_t>& parent, int32_t x) {
     x = next;
   }
   return root;
+}
+
+// Union-find forest of the components over the kept edges of a CSR adjacency (`kept` per
+// slot): every root is the smallest member of its component.
+void JoinKept(const supervoxel::Supervoxels& sv, const std::vector<uint8_t>& kept,
+              std::vector<int32_t>* parent) {
+  const size_t n = sv.size();
+  const auto& off = sv.adjacency_offsets;
+  const auto& adj = sv.adjacency;
+  parent->resize(n);
+  for (size_t i = 0; i < n; ++i) (*parent)[i] = static_cast<int32_t>(i);
+  for (size_t i = 0; i < n; ++i) {
+    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
+      const uint32_t j = adj[s];
+      if (j < i || !kept[s]) continue;
+      const int32_t a = Find(*parent, static_cast<int32_t>(i));
+      const int32_t b = Find(*parent, static_cast<int32_t>(j));
+      if (a != b) (*parent)[std::max(a, b)] = std::min(a, b);
+    }
+  }
 }
 
 void CheckAdjacency(const supervoxel::Supervoxels& sv) {
@@ -297,8 +321,13 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   const bool jumps = params_.depth_jump_rel > 0.f;
   const bool image_jumps = use.image_jumps;
   const bool view_jumps = use.view_jumps;
-  if (crease || image_jumps || view_jumps || color) {
-    if (image_jumps) CountImageBorderPairs(sv, *cues.cloud);
+  const bool contact = use.contact;
+  const float cos_contact =
+      static_cast<float>(std::cos(double{params_.contact_cut_max_angle_deg} / kRadToDeg));
+  const auto contact_limit = static_cast<uint32_t>(params_.contact_cut_max_pairs);
+  if (contact) contact_cut_.assign(slots, 0);
+  if (crease || image_jumps || view_jumps || color || contact) {
+    if (image_jumps || contact) CountImageBorderPairs(sv, *cues.cloud);
     if (view_jumps) CountViewBorderPairs(sv, *cues.voxels, *cues.voxel_supervoxel);
     if (color && !prepared) MeanChroma(sv, *cues.cloud);
     const float cos_color =
@@ -333,6 +362,12 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
                   static_cast<float>(jump_pairs_[s]) >=
                       params_.depth_jump_fraction * static_cast<float>(pairs);
           }
+          if (!cut && contact && border_pairs_[s] < contact_limit) {
+            // A candidate of the contact cut; its diagonal pixel pairs are counted below.
+            const core::Vec3f& ni = f.normal[i];
+            const core::Vec3f& nj = f.normal[j];
+            if (ni.x * nj.x + ni.y * nj.y + ni.z * nj.z >= cos_contact) contact_cut_[s] = 1;
+          }
           if (!cut && color) {
             const core::Vec3f& ni = f.normal[i];
             const core::Vec3f& nj = f.normal[j];
@@ -352,6 +387,7 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
     for (size_t s = 0; s < slots; ++s) {
       if (cue_cut_[s]) convex_raw_[s] = convex_raw_[reverse_slot_[s]] = 0;
     }
+    if (contact) CountDiagonalContacts(sv);
   }
 
   // Extended convexity: count common neighbours forming convex triangles.
@@ -397,19 +433,10 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   }
 
   if (params_.bridge_max_edges > 0) CutBridges(sv, f, out);
+  if (contact) CutContactless(sv, out);
 
   // Connected components over kept edges.
-  parent_.resize(n);
-  for (size_t i = 0; i < n; ++i) parent_[i] = static_cast<int32_t>(i);
-  for (size_t i = 0; i < n; ++i) {
-    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
-      const uint32_t j = adj[s];
-      if (j < i || !out->edge_kept[s]) continue;
-      const int32_t a = Find(parent_, static_cast<int32_t>(i));
-      const int32_t b = Find(parent_, static_cast<int32_t>(j));
-      if (a != b) parent_[std::max(a, b)] = std::min(a, b);  // root = smallest member
-    }
-  }
+  JoinKept(sv, out->edge_kept, &parent_);
   // With the root always the smallest member, components appear in order of their roots.
   int32_t num = 0;
   for (size_t i = 0; i < n; ++i) {
@@ -477,6 +504,9 @@ Linkage::CueUse Linkage::Use(const supervoxel::Supervoxels& sv, const LinkageCue
   use.view_jumps = jumps && !use.image_jumps && cues.voxels != nullptr &&
                    cues.voxel_supervoxel != nullptr &&
                    cues.voxel_supervoxel->size() == cues.voxels->size();
+  use.contact = params_.contact_cut_max_pairs > 0 && cues.cloud.has_value() &&
+                cues.cloud->organized() && sv.width == cues.cloud->width &&
+                sv.height == cues.cloud->height && sv.pixel_label.size() == cues.cloud->xyz.size();
   use.color = params_.color_threshold > 0.f && cues.cloud.has_value() && cues.cloud->has_color() &&
               cues.cloud->rgba.size() == sv.pixel_label.size();
   return use;
@@ -571,6 +601,105 @@ void Linkage::CountImageBorderPairs(const supervoxel::Supervoxels& sv,
     for (const uint32_t e : band_events_[k]) {
       ++border_pairs_[e >> 1];
       jump_pairs_[e >> 1] += e & 1u;
+    }
+  }
+}
+
+void Linkage::CountDiagonalContacts(const supervoxel::Supervoxels& sv) {
+  const size_t n = sv.size();
+  const size_t slots = sv.adjacency.size();
+  const uint32_t* off = sv.adjacency_offsets.data();
+  const uint32_t* adj = sv.adjacency.data();
+  contact_node_.assign(n, 0);
+  bool any = false;
+  for (size_t i = 0; i < n; ++i) {
+    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
+      if (contact_cut_[s] == 0) continue;
+      contact_node_[i] = contact_node_[adj[s]] = 1;
+      any = true;
+    }
+  }
+  if (!any) return;
+  // Diagonal pixel pairs ((u, v), (u + 1, v + 1)) and ((u + 1, v), (u, v + 1)) of two
+  // candidate supervoxels, per band of rows, as slots of the lower id.
+  const size_t w = static_cast<size_t>(sv.width), h = static_cast<size_t>(sv.height);
+  const size_t num_bands = core::ThreadPool::NumChunks(h, kRowGrain);
+  if (band_events_.size() < num_bands) band_events_.resize(num_bands);
+  const int32_t* lab = sv.pixel_label.data();
+  const uint8_t* node = contact_node_.data();
+  const uint8_t* candidate = contact_cut_.data();
+  core::ForChunks(pool_, h, kRowGrain, [&](size_t r0, size_t r1) {
+    std::vector<uint32_t>& events = band_events_[r0 / kRowGrain];
+    events.clear();
+    SlotCache slot_of(off, adj);
+    auto visit = [&](int32_t a, int32_t b) {
+      if (a == b || (a | b) < 0 || !node[a] || !node[b]) return;
+      const auto lo = static_cast<uint32_t>(std::min(a, b));
+      const auto hi = static_cast<uint32_t>(std::max(a, b));
+      const uint32_t slot = slot_of.Slot(lo, hi);
+      if (slot != UINT32_MAX && candidate[slot] != 0) events.push_back(slot);
+    };
+    for (size_t v = r0; v < std::min(r1, h - 1); ++v) {
+      const int32_t* here = lab + v * w;
+      const int32_t* below = here + w;
+      size_t u = 0;
+#if defined(__SSE2__)
+      // Four 2 x 2 blocks at a time: most have no diagonal pair of two valid labels that differ.
+      for (; u + 5 <= w; u += 4) {
+        const auto load = [](const int32_t* p) {
+          return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));
+        };
+        const unsigned down = DifferingValid(load(here + u), load(below + u + 1));
+        const unsigned up = DifferingValid(load(here + u + 1), load(below + u));
+        if ((down | up) == 0) continue;
+        for (size_t k = 0; k < 4; ++k) {
+          if (down >> k & 1u) visit(here[u + k], below[u + k + 1]);
+          if (up >> k & 1u) visit(here[u + k + 1], below[u + k]);
+        }
+      }
+#endif
+      for (; u + 1 < w; ++u) {
+        visit(here[u], below[u + 1]);
+        visit(here[u + 1], below[u]);
+      }
+    }
+  });
+  for (size_t k = 0; k < num_bands; ++k) {
+    for (const uint32_t slot : band_events_[k]) ++border_pairs_[slot];
+  }
+  const auto limit = static_cast<uint32_t>(params_.contact_cut_max_pairs);
+  for (size_t s = 0; s < slots; ++s) {
+    if (contact_cut_[s] != 0 && border_pairs_[s] < limit) contact_cut_[s] = 2;
+  }
+}
+
+void Linkage::CutContactless(const supervoxel::Supervoxels& sv, LinkageResult* out) {
+  const size_t n = sv.size();
+  const size_t slots = sv.adjacency.size();
+  const uint32_t* off = sv.adjacency_offsets.data();
+  const uint32_t* adj = sv.adjacency.data();
+  bool any = false;
+  for (size_t s = 0; s < slots; ++s) {
+    if (contact_cut_[s] != 2) continue;
+    out->edge_kept[s] = out->edge_kept[reverse_slot_[s]] = 0;
+    any = true;
+  }
+  if (!any) return;
+  // Components over what is kept now; a cut edge whose sides are not both large enough is
+  // kept again (all restorations judged on the same components).
+  JoinKept(sv, out->edge_kept, &parent_);
+  size_.assign(n, 0);
+  for (size_t i = 0; i < n; ++i) ++size_[Find(parent_, static_cast<int32_t>(i))];
+  const auto min_side = static_cast<uint32_t>(params_.contact_cut_min_supervoxels);
+  for (size_t i = 0; i < n; ++i) {
+    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
+      const uint32_t j = adj[s];
+      if (j < i || contact_cut_[s] != 2) continue;
+      const int32_t a = Find(parent_, static_cast<int32_t>(i));
+      const int32_t b = Find(parent_, static_cast<int32_t>(j));
+      if (a != b && std::min(size_[a], size_[b]) < min_side) {
+        out->edge_kept[s] = out->edge_kept[reverse_slot_[s]] = 1;
+      }
     }
   }
 }
@@ -779,16 +908,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
   std::vector<uint8_t>& kept = out->edge_kept;
   // Components over the kept edges; a side cut off later gets a new id.
   std::vector<int32_t>& comp = bridge_comp_;
-  comp.resize(n);
-  for (size_t i = 0; i < n; ++i) comp[i] = static_cast<int32_t>(i);
-  for (size_t i = 0; i < n; ++i) {
-    for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
-      if (!kept[s] || adj[s] < i) continue;
-      const int32_t a = Find(comp, static_cast<int32_t>(i));
-      const int32_t b = Find(comp, static_cast<int32_t>(adj[s]));
-      if (a != b) comp[std::max(a, b)] = std::min(a, b);
-    }
-  }
+  JoinKept(sv, kept, &comp);
   for (size_t i = 0; i < n; ++i) comp[i] = Find(comp, static_cast<int32_t>(i));
   int32_t next_comp = static_cast<int32_t>(n);
 
@@ -802,6 +922,11 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
   const float min_cos =
       static_cast<float>(std::cos(double{params_.bridge_max_angle_deg} / kRadToDeg));
   std::vector<uint32_t>& queue = bridge_queue_;
+  // Work bound: adjacency slots scanned by the searches, at most kBridgeWorkPerSlot per slot
+  // of the graph; candidates after it is spent are not tested (in candidate order, so the
+  // output stays deterministic).
+  size_t work = 0;
+  const size_t work_budget = kBridgeWorkPerSlot * adj.size();
 
   for (size_t i0 = 0; i0 < n; ++i0) {
     const auto i = static_cast<uint32_t>(i0);
@@ -824,6 +949,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
         }
       }
       if (common > max_flow) continue;
+      if (work > work_budget) return;
       // Augmenting paths from i to j over kept edges of unit capacity in each direction, up to
       // one more than the widest bridge allowed.
       int flow = 0;
@@ -837,6 +963,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
         reached = false;
         for (size_t q = 0; q < queue.size() && !reached; ++q) {
           const uint32_t a = queue[q];
+          work += off[a + 1] - off[a];
           for (uint32_t s = off[a]; s < off[a + 1]; ++s) {
             const uint32_t b = adj[s];
             if (!kept[s] || bridge_flow_[s] > 0 || bridge_mark_[b] == mark) continue;
@@ -875,6 +1002,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
       uint32_t kept_j = 0, concave_j = 0;
       for (size_t q = i_size; q < queue.size(); ++q) {
         const uint32_t a = queue[q];
+        work += off[a + 1] - off[a];
         for (uint32_t s = off[a]; s < off[a + 1]; ++s) {
           const uint32_t b = adj[s];
           if (!kept[s] || bridge_mark_[b] == side_i) continue;

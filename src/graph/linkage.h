@@ -53,13 +53,15 @@ struct LinkageCues {
 /// their largest neighbouring segment. Before the components, optional cues cut edges the
 /// convexity test keeps: crease evidence (graph only), depth jumps across the supervoxels'
 /// border as seen from the camera, and colour (LinkageParams); after them the bridge cut
-/// removes narrow bridges of kept edges between parts that meet along cut edges.
+/// removes narrow bridges of kept edges between parts that meet along cut edges, and the
+/// contact cut removes edges between parallel patches whose pixels do not touch.
 ///
 /// Output is deterministic and independent of the pool size. Thread-safety: Compute is not
 /// reentrant (reuses work buffers). Complexity: O(supervoxels + edges), plus O(edges * degree)
 /// with extended convexity or crease evidence, plus O(pixels) for depth jumps on an organized
-/// cloud (one pass over the label image in bands of rows on the pool) or O(voxels log voxels)
-/// on an unorganized one (a k-d tree over the voxels' view directions), plus O(points) for
+/// cloud (one pass over the label image in bands of rows on the pool, a second one for the
+/// contact cut when it has candidates) or O(voxels log voxels) on an unorganized one (a k-d
+/// tree over the voxels' view directions), plus O(points) for
 /// colour, plus for the bridge cut at most bridge_max_edges + 2 breadth-first searches of a
 /// component per crease edge inside it. Nothing is allocated once the buffers have grown to the
 /// largest frame.
@@ -97,6 +99,7 @@ class Linkage {
     bool image_jumps{false};  // depth jumps on the organized image
     bool view_jumps{false};   // depth jumps between voxels' view directions (unorganized)
     bool color{false};        // the colour cut and its wider concavity tolerance
+    bool contact{false};      // the contact cut (organized image)
   };
   CueUse Use(const supervoxel::Supervoxels& sv, const LinkageCues& cues) const;
 
@@ -104,6 +107,13 @@ class Linkage {
   void CountImageBorderPairs(const supervoxel::Supervoxels& sv, const core::PointCloudView& cloud);
   void CountViewBorderPairs(const supervoxel::Supervoxels& sv, const geometry::VoxelGrid& voxels,
                             const std::vector<int32_t>& voxel_supervoxel);
+  // Contact cut (LinkageParams::contact_cut_max_pairs): adds the diagonal pixel pairs of the
+  // candidate slots (contact_cut_, 1) to border_pairs_ and marks those still below the
+  // limit (2).
+  void CountDiagonalContacts(const supervoxel::Supervoxels& sv);
+  // Clears out->edge_kept on the marked slots, then restores those whose two sides are not
+  // both at least contact_cut_min_supervoxels.
+  void CutContactless(const supervoxel::Supervoxels& sv, LinkageResult* out);
   // Bridge cut (LinkageParams::bridge_max_edges): clears out->edge_kept on narrow bridges
   // between parts of a component that meet along cut edges.
   void CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures& f, LinkageResult* out);
@@ -118,8 +128,10 @@ class Linkage {
   core::ThreadPool* const pool_;
   std::vector<uint32_t> reverse_slot_;
   std::vector<uint8_t> convex_raw_;
-  std::vector<uint8_t> edge_class_;  // per slot: ConnectionClass of the convexity test
-  std::vector<uint8_t> cue_cut_;     // per slot of the lower id: cut by a cue
+  std::vector<uint8_t> edge_class_;    // per slot: ConnectionClass of the convexity test
+  std::vector<uint8_t> cue_cut_;       // per slot of the lower id: cut by a cue
+  std::vector<uint8_t> contact_cut_;   // per slot of the lower id: 1 candidate, 2 to be cut
+  std::vector<uint8_t> contact_node_;  // per supervoxel: has a candidate slot
   std::vector<uint32_t> border_pairs_;
   std::vector<uint32_t> jump_pairs_;
   std::vector<std::vector<uint32_t>> band_events_;  // per band: slot << 1 | jumped

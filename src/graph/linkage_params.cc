@@ -23,6 +23,9 @@ void LinkageParams::ValidateOrThrow() const {
   check.InRange("bridge_min_supervoxels", bridge_min_supervoxels, 1, 1000000);
   check.InRange("bridge_max_angle_deg", bridge_max_angle_deg, 0.f, 180.f, "deg");
   check.InRange("bridge_max_concave_share", bridge_max_concave_share, 0.f, 1.f);
+  check.InRange("contact_cut_max_pairs", contact_cut_max_pairs, 0, 1000000, "(0 = off)");
+  check.InRange("contact_cut_max_angle_deg", contact_cut_max_angle_deg, 0.f, 90.f, "deg");
+  check.InRange("contact_cut_min_supervoxels", contact_cut_min_supervoxels, 1, 1000000);
 }
 
 }  // namespace clutterseg::graph

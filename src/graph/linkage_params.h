@@ -79,6 +79,20 @@ struct LinkageParams {
   /// surface is the inside of a vessel, whose crease with its own outside is no contact).
   float bridge_max_concave_share{0.6f};
 
+  /// Contact cut (organized clouds only; docs/method.md section 7): two patches that are
+  /// neighbours in space but whose pixels do not touch in the image are not seen to touch,
+  /// such as the inside bottom of a cup and the book under it, next to each other across the
+  /// cup's thin wall (the wall lies between them in the image). An edge the other tests keep
+  /// is cut when the two patches' pixels meet in fewer than this many pairs of 8-neighbour
+  /// pixels (0 = off)...
+  int contact_cut_max_pairs{1};
+  /// ...and their normals differ by at most this, degrees (two faces parallel across a wall:
+  /// the cut leaves creases and curved surfaces to the convexity test)...
+  float contact_cut_max_angle_deg{25.84f};
+  /// ...and, after all cuts, both sides it separates have at least this many supervoxels (a
+  /// patch of an object seen only past a thin gap in its own surface stays with it).
+  int contact_cut_min_supervoxels{4};
+
   /// @throws std::invalid_argument naming the key (`segmenter.linkage.<field>`) and value.
   void ValidateOrThrow() const;
 };

@@ -19,9 +19,9 @@ struct PartitionPriorParams {
   /// A change of the partition of a still region (two objects of the previous frame now one
   /// segment, or one object now several) is published once the segmentation has shown it in
   /// this many consecutive frames; until then the previous frame's boundaries are kept there.
-  /// 1 = every change at once (off). A region whose depth changed does not wait (see
-  /// min_still_share).
-  int hold_frames{1};
+  /// 1 = every change at once (off); 4 by default (docs/results.md, "Hysteresis on the
+  /// partition"). A region whose depth changed does not wait (see min_still_share).
+  int hold_frames{4};
   /// A segment counts as still when at least this share of its valid pixels kept their depth
   /// within the temporal filter's band (segmenter.temporal.band_at_1m_m, min_band_m) since the
   /// previous frame (0..1]. Anything placed, removed, pushed or passing in front makes its

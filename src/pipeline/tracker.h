@@ -62,7 +62,7 @@ struct TrackerParams {
   /// the one with more points; a track's own centroid is that of its last view that absorbed
   /// no other track and held no remembered one (so after a merge comes apart each object
   /// gets its own id back). 0 = off: the part with the most points keeps it.
-  float split_own_margin_m{0.0f};
+  float split_own_margin_m{0.01f};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
   /// rest goes in equal parts to centroid proximity and 3-D box IoU (0..1).

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <utility>
@@ -646,6 +648,99 @@ TEST(Linkage, BridgeCutNeedsALongCreaseLargeSidesAndAFlatBridge) {
   p.bridge_max_concave_share = 0.1f;
   Linkage(p).Compute(b.g.sv, b.g.f, &r);
   EXPECT_EQ(r.num_segments, 2);
+}
+
+// Two rows of flat strips facing the camera at 1 m in an organized 80 x 60 image: strips
+// 0..left-1 from the left edge and left..left+right-1 after a gap of 8 columns of invalid
+// pixels (the top of a thin wall seen edge-on, a shadow), 9 columns each. Neighbouring strips of
+// a side touch; the two innermost strips are neighbours in space (edge (left - 1, left))
+// although no pixel of one touches a pixel of the other: two faces of one surface height on
+// either side of a wall, as a cup's inside bottom and the book it stands on. `contact`: pixels
+// of the gap filled on row 30 so that the two strips touch there, 4-neighbour (1) or only
+// diagonally (2). The right side's normals are turned by `turn_deg` about the image vertical.
+StepScene MakeWall(int left, int right, int contact, float turn_deg) {
+  constexpr int kWidth = 80, kHeight = 60, kStrip = 9, kGap = 8;
+  StepScene s;
+  const double f = 525.0, cx = 0.5 * (kWidth - 1), cy = 0.5 * (kHeight - 1);
+  const int gap_begin = left * kStrip, gap_end = gap_begin + kGap;
+  const int n = left + right;
+  s.cloud.width = s.sv.width = kWidth;
+  s.cloud.height = s.sv.height = kHeight;
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int v = 0; v < kHeight; ++v) {
+    for (int u = 0; u < kWidth; ++u) {
+      int32_t label = -1;
+      if (u < gap_begin) {
+        label = u / kStrip;
+      } else if (u >= gap_end && u < gap_end + right * kStrip) {
+        label = left + (u - gap_end) / kStrip;
+      }
+      const int half = gap_begin + kGap / 2;
+      if (contact == 1 && v == 30 && u >= gap_begin && u < gap_end) {
+        label = u < half ? left - 1 : left;
+      }
+      if (contact == 2 && u >= gap_begin && u < gap_end &&
+          ((v == 30 && u < half) || (v == 31 && u >= half))) {
+        label = u < half ? left - 1 : left;
+      }
+      s.sv.pixel_label.push_back(label);
+      s.cloud.xyz.push_back(label < 0 ? core::Vec3f{nan, nan, nan}
+                                      : core::Vec3f{static_cast<float>((u - cx) / f),
+                                                    static_cast<float>((v - cy) / f), 1.f});
+    }
+  }
+  std::vector<std::pair<uint32_t, uint32_t>> edges;
+  for (int i = 0; i + 1 < n; ++i) edges.emplace_back(i, i + 1);
+  testing::BuildCsr(n, edges, &s.sv.adjacency_offsets, &s.sv.adjacency);
+  s.sv.centroid.resize(static_cast<size_t>(n));
+  s.sv.normal.assign(static_cast<size_t>(n), kFacing);
+  s.sv.curvature.assign(static_cast<size_t>(n), 0.f);
+  s.sv.num_points.assign(static_cast<size_t>(n), 0);
+  s.sv.eigenvalues.resize(static_cast<size_t>(n));
+  PatchFeatureExtractor().Compute(s.cloud, s.sv, &s.f);
+  const float t = turn_deg * std::numbers::pi_v<float> / 180.f;
+  for (int i = 0; i < n; ++i) {
+    s.f.normal[static_cast<size_t>(i)] =
+        i < left ? kFacing : core::Vec3f{std::sin(t), 0.f, -std::cos(t)};
+  }
+  return s;
+}
+
+int WallSegments(const StepScene& s, const LinkageParams& params) {
+  LinkageCues cues;
+  cues.cloud = s.cloud;
+  LinkageResult r;
+  Linkage(params).Compute(s.sv, s.f, cues, &r);
+  return r.num_segments;
+}
+
+TEST(Linkage, ContactCutSeparatesParallelFacesThatDoNotTouchInTheImage) {
+  LinkageParams off;
+  off.contact_cut_max_pairs = 0;
+  const LinkageParams on;  // fewer than 1 pixel pair, within 25.84 deg, sides of 4 or more
+  // Four strips on each side, no pixel contact: one segment without the cut, two with it.
+  const StepScene wall = MakeWall(4, 4, 0, 0.f);
+  ASSERT_EQ(WallSegments(wall, off), 1);
+  EXPECT_EQ(WallSegments(wall, on), 2);
+  // The strips touch on one row, side by side or only at a corner: they are seen to touch.
+  EXPECT_EQ(WallSegments(MakeWall(4, 4, 1, 0.f), on), 1);
+  EXPECT_EQ(WallSegments(MakeWall(4, 4, 2, 0.f), on), 1);
+  // ...unless more contact is asked for: one row gives one pair of pixels either way.
+  LinkageParams more = on;
+  more.contact_cut_max_pairs = 2;
+  EXPECT_EQ(WallSegments(MakeWall(4, 4, 1, 0.f), more), 2);
+  EXPECT_EQ(WallSegments(MakeWall(4, 4, 2, 0.f), more), 2);
+  // Faces turned by 30 degrees to each other are left to the convexity test, which keeps them.
+  const StepScene turned = MakeWall(4, 4, 0, 30.f);
+  ASSERT_EQ(WallSegments(turned, off), 1);
+  EXPECT_EQ(WallSegments(turned, on), 1);
+  // A side of 3 strips is below contact_cut_min_supervoxels (4): the edge is kept.
+  const StepScene small = MakeWall(4, 3, 0, 0.f);
+  ASSERT_EQ(WallSegments(small, off), 1);
+  EXPECT_EQ(WallSegments(small, on), 1);
+  LinkageParams smaller = on;
+  smaller.contact_cut_min_supervoxels = 3;
+  EXPECT_EQ(WallSegments(small, smaller), 2);
 }
 
 TEST(Linkage, IdenticalForAnyThreadCount) {
