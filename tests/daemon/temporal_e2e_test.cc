@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "clutterseg/daemon/messages.h"
 #include "clutterseg/daemon/source_factory.h"
 #include "clutterseg/depth_image_t.hpp"
+#include "clutterseg/io/png_io.h"
 #include "clutterseg/label_image_t.hpp"
 #include "tests/daemon/daemon_cli.h"
 #include "tests/daemon/daemon_test_util.h"
@@ -124,6 +126,82 @@ TEST_F(DaemonTemporal, ThePartitionPriorGivesTheSameLabelsWhateverTheLanes) {
   for (size_t k = 0; k < serial.labels.size(); ++k) {
     EXPECT_EQ(wide.labels[k].data, serial.labels[k].data) << k;
   }
+}
+
+// At the defaults (the temporal filter and the partition hysteresis on) an object put down on
+// a still table is published in the frame it appears in, as segmented: the hysteresis holds
+// only still regions, and the filter resets the pixels that changed. Every object that the
+// recording adds is compared, in the frame of its addition, with the same replay with the
+// hysteresis off: its dominant published segment is the same size in both, and it covers
+// most of the object.
+TEST_F(DaemonTemporal, AnObjectPutDownShowsInTheFrameItAppearsInAtTheDefaults) {
+  const std::string oni = (dir_ / "add.oni").string();
+  const fs::path gt = dir_ / "add_gt";
+  std::string err;
+  ASSERT_EQ(testutil::Run({CLUTTERSEG_SYNTH_EXE, "--scenario", "piles", "--objects", "8",
+                           "--step-frames", "6", "--frames", "108", "--seed", "33", "--oni", oni,
+                           "--out", gt.string(), "--gt-labels-only"},
+                          std::chrono::minutes(5), &err),
+            0)
+      << err;
+  const Published held = Replay(oni, "add_defaults");
+  const Published free = Replay(oni, "add_no_hold", {"--set", "segmenter.partition.hold_frames=1"});
+  ASSERT_EQ(held.labels.size(), 108u);
+  ASSERT_EQ(free.labels.size(), held.labels.size());
+  char name[64];
+  auto truth = [&](size_t k) {
+    std::snprintf(name, sizeof(name), "frame_%06zu_label.png", k);
+    return io::ReadDepthPng((gt / name).string());
+  };
+  // The published segment holding most of the pixels of label `g` in `truth`, and its size.
+  struct Dominant {
+    uint32_t label{0};
+    size_t on_object{0};
+    size_t size{0};
+  };
+  auto dominant = [](const core::DepthImage& truth_k, uint16_t g, const core::LabelImage& out) {
+    std::vector<size_t> count;
+    for (size_t i = 0; i < truth_k.data.size(); ++i) {
+      const uint32_t l = out.data[i];
+      if (truth_k.data[i] != g || l == 0) continue;
+      if (count.size() <= l) count.resize(l + 1, 0);
+      ++count[l];
+    }
+    Dominant d;
+    for (uint32_t l = 1; l < count.size(); ++l) {
+      if (count[l] > d.on_object) d = Dominant{l, count[l], 0};
+    }
+    for (const uint32_t l : out.data) d.size += l == d.label && d.label != 0 ? 1 : 0;
+    return d;
+  };
+  int added = 0;
+  core::DepthImage before = truth(0);
+  for (size_t k = 1; k < held.labels.size(); ++k) {
+    const core::DepthImage now = truth(k);
+    ASSERT_EQ(now.data.size(), held.labels[k].data.size());
+    std::vector<size_t> pixels(65536, 0);
+    std::vector<uint8_t> seen_before(65536, 0);
+    for (const uint16_t g : before.data) seen_before[g] = 1;
+    for (const uint16_t g : now.data) ++pixels[g];
+    for (size_t g = 1; g < pixels.size(); ++g) {
+      if (seen_before[g] || pixels[g] < 200) continue;
+      SCOPED_TRACE("object " + std::to_string(g) + " added in frame " + std::to_string(k));
+      ++added;
+      const Dominant h = dominant(now, static_cast<uint16_t>(g), held.labels[k]);
+      const Dominant f = dominant(now, static_cast<uint16_t>(g), free.labels[k]);
+      EXPECT_GT(h.on_object, pixels[g] / 2);
+      EXPECT_EQ(h.on_object, f.on_object);
+      EXPECT_EQ(h.size, f.size);
+    }
+    before = now;
+  }
+  EXPECT_GE(added, 7);  // objects 2-8 are put down on a table that has been still
+  // ...while the hysteresis held the partition of still objects in some frames.
+  int held_frames = 0;
+  for (size_t k = 0; k < held.labels.size(); ++k) {
+    held_frames += held.labels[k].data != free.labels[k].data ? 1 : 0;
+  }
+  EXPECT_GT(held_frames, 0);
 }
 
 TEST(DaemonTemporalSources, StreamsAreFilteredAndDirectoriesOfFilesAreNot) {
