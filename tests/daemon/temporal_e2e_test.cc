@@ -135,8 +135,8 @@ TEST_F(DaemonTemporal, ThePartitionPriorGivesTheSameLabelsWhateverTheLanes) {
 // hysteresis off: its dominant published segment is the same size in both, and it covers
 // most of the object.
 TEST_F(DaemonTemporal, AnObjectPutDownShowsInTheFrameItAppearsInAtTheDefaults) {
-  const std::string oni = (dir_ / "add.oni").string();
-  const fs::path gt = dir_ / "add_gt";
+  const std::string oni = (dir_ / "piles.oni").string();
+  const fs::path gt = dir_ / "piles_gt";
   std::string err;
   ASSERT_EQ(testutil::Run({CLUTTERSEG_SYNTH_EXE, "--scenario", "piles", "--objects", "8",
                            "--step-frames", "6", "--frames", "108", "--seed", "33", "--oni", oni,
@@ -144,8 +144,9 @@ TEST_F(DaemonTemporal, AnObjectPutDownShowsInTheFrameItAppearsInAtTheDefaults) {
                           std::chrono::minutes(5), &err),
             0)
       << err;
-  const Published held = Replay(oni, "add_defaults");
-  const Published free = Replay(oni, "add_no_hold", {"--set", "segmenter.partition.hold_frames=1"});
+  const Published held = Replay(oni, "piles_defaults");
+  const Published free =
+      Replay(oni, "piles_no_hold", {"--set", "segmenter.partition.hold_frames=1"});
   ASSERT_EQ(held.labels.size(), 108u);
   ASSERT_EQ(free.labels.size(), held.labels.size());
   char name[64];
