@@ -126,6 +126,8 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.reference_decay", &C::tracker, &T::reference_decay),
           MakeKey("tracker.part_min_fraction", &C::tracker, &T::part_min_fraction),
           MakeKey("tracker.split_own_margin_m", &C::tracker, &T::split_own_margin_m),
+          MakeKey("tracker.continuation_before_reacquire", &C::tracker,
+                  &T::continuation_before_reacquire),
           MakeKey("tracker.mask_weight", &C::tracker, &T::mask_weight),
           MakeKey("tracker.lost_score_factor", &C::tracker, &T::lost_score_factor)}) {
       k.push_back(std::move(key));

@@ -136,6 +136,7 @@ struct Tracker::Impl {
   std::vector<double> score, cost;
   std::vector<int32_t> row_to_col, det_track;
   std::vector<uint8_t> merged_det;
+  std::vector<uint8_t> split_by_size;
   std::vector<Track> kept;
   optimize::AssignmentSolver solver;
 };
@@ -258,6 +259,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   }
 
   merged_det.assign(static_cast<size_t>(num_dets), 0);
+  split_by_size.assign(static_cast<size_t>(num_tracks), 0);
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
   // the part with the most points keeps it (with split_own_margin_m, the part nearest the
   // track's own centroid, when clearly nearest). Merges: a track whose previous mask lies mostly
@@ -292,13 +294,22 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       }
       if (parts < 2) continue;
       ++out->counts.splits;
+      // Whether the part was chosen as clearly the nearest to the track's own centroid, not
+      // by its size alone.
+      const float near_best =
+          Distance(frame.objects[static_cast<size_t>(best)].centroid, t.own_centroid);
+      bool by_own = params.split_own_margin_m > 0.f;
       for (int d = 0; d < num_dets; ++d) {
         const uint32_t i = inter(t, d);
         const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
         if (d != best && i > 0 && i >= params.part_min_fraction * size) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
+          by_own = by_own &&
+                   near_best + params.split_own_margin_m <
+                       Distance(frame.objects[static_cast<size_t>(d)].centroid, t.own_centroid);
         }
       }
+      split_by_size[static_cast<size_t>(r)] = !by_own;
     }
     for (int d = 0; d < num_dets; ++d) {
       int absorbed = 0, best = -1;
@@ -326,6 +337,30 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         if (r == best || t.prev_label == 0) continue;
         const uint32_t i = inter(t, d);
         if (i > 0 && i >= params.part_min_fraction * prev_size[t.prev_label]) {
+          score[static_cast<size_t>(r) * num_dets + d] = 0.0;
+        }
+      }
+    }
+  }
+
+  // An object that continues a confirmed visible track (most of the track's previous mask,
+  // lying mostly on it or a merge the track keeps; when the track split, the part nearest its
+  // own centroid) is not reacquired by a remembered track.
+  if (overlap && params.continuation_before_reacquire) {
+    for (int d = 0; d < num_dets; ++d) {
+      const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
+      bool claimed = false;
+      for (int r = 0; r < num_tracks && !claimed; ++r) {
+        const Track& t = tracks[static_cast<size_t>(r)];
+        const uint32_t i = inter(t, d);
+        claimed = t.prev_label != 0 && t.confirmed && !split_by_size[static_cast<size_t>(r)] &&
+                  score[static_cast<size_t>(r) * num_dets + d] > 0.0 && i > 0 &&
+                  (i >= params.part_min_fraction * size || merged_det[static_cast<size_t>(d)]) &&
+                  i >= params.part_min_fraction * prev_size[t.prev_label];
+      }
+      if (!claimed) continue;
+      for (int r = 0; r < num_tracks; ++r) {
+        if (tracks[static_cast<size_t>(r)].prev_label == 0) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
         }
       }

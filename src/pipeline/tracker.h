@@ -70,6 +70,16 @@ struct TrackerParams {
   /// Scores of remembered tracks are multiplied by this factor, so an object that could
   /// continue a visible track or reacquire a lost one continues the visible one (0..1].
   float lost_score_factor{0.8f};
+  /// When true, an object that continues a confirmed track seen in the previous frame is
+  /// never given to a remembered track: the track's previous mask lies on the object by at
+  /// least part_min_fraction of the mask, the object lies on the mask by that share of its own
+  /// pixels (or is a merge the track keeps), the split and merge rules leave the pair allowed,
+  /// and when the track split the object is the part nearer its own centroid by more than
+  /// split_own_margin_m (a part chosen by its size alone may be the other object's). A remembered
+  /// box that encloses the object (a track lost while it was merged with its neighbour) would
+  /// otherwise outscore a continuation whose boundary moved by noise, and hand the object a
+  /// different object's id. false = the scores alone decide.
+  bool continuation_before_reacquire{true};
 
   /// @throws std::invalid_argument naming the key `tracker.<field>` and the value.
   void ValidateOrThrow() const;

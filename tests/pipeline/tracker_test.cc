@@ -254,6 +254,46 @@ TEST(TrackerSplitOwnPart, AMergeThatComesApartGivesEachObjectItsOwnId) {
   }
 }
 
+// One segment covering two objects splits; the larger part keeps its track (1) and the other
+// starts its own (2). The larger part then leaves, so track 1 is remembered with the box of the
+// whole. When noise moves the remaining object's boundary (a third of it missing), its
+// continuation scores lower than track 1's remembered box, which encloses it: with
+// continuation_before_reacquire it keeps its own id; without, it takes the id of the object
+// that left.
+TEST(TrackerContinuation, AnObjectWhoseBoundaryMovesKeepsItsIdBesideAnEnclosingRememberedBox) {
+  const Rect whole{10, 10, 40, 30}, part{10, 10, 22, 30}, other{23, 10, 40, 30};
+  const Rect shrunk{10, 10, 17, 30};
+  for (const bool rule : {true, false}) {
+    TrackerParams p;
+    p.continuation_before_reacquire = rule;
+    Tracker dut(p);
+    TrackingResult out;
+    int64_t seq = 0;
+    for (int f = 0; f < 4; ++f) dut.Update(MakeFrame({whole}), seq++, &out);
+    for (int f = 0; f < 4; ++f) dut.Update(MakeFrame({part, other}), seq++, &out);
+    ASSERT_EQ(Ids(out), (std::vector<int64_t>{2, 1}));
+    ASSERT_EQ(out.objects[0].state, TrackState::kConfirmed);
+    dut.Update(MakeFrame({part}), seq++, &out);
+    ASSERT_EQ(Ids(out), (std::vector<int64_t>{2}));
+    ASSERT_TRUE(IsLost(out, 1));
+    dut.Update(MakeFrame({shrunk}), seq++, &out);
+    if (rule) {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{2}));
+      EXPECT_TRUE(IsLost(out, 1));
+      EXPECT_EQ(out.counts.continued, 1);
+    } else {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{1})) << "the failure the rule prevents";
+      EXPECT_TRUE(IsLost(out, 2));
+    }
+    // Back at its full extent, the object keeps its id (without the rule the ids would
+    // swap again: the remembered box of track 2 encloses it).
+    dut.Update(MakeFrame({part}), seq++, &out);
+    if (rule) {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{2}));
+    }
+  }
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
