@@ -76,7 +76,8 @@ struct TrackerParams {
   /// pixels (or is a merge the track keeps), the split and merge rules leave the pair allowed,
   /// and when the track split the object is the part nearer its own centroid by more than
   /// split_own_margin_m (a part chosen by its size alone may be the other object's). A remembered
-  /// box that encloses the object (a track lost while it was merged with its neighbour) would
+  /// box that encloses the object (the track's largest view covered it: a merge, a piece of
+  /// background beside it) would
   /// otherwise outscore a continuation whose boundary moved by noise, and hand the object a
   /// different object's id. false = the scores alone decide.
   bool continuation_before_reacquire{true};
