@@ -77,9 +77,8 @@ struct TrackerParams {
   /// and when the track split the object is the part nearer its own centroid by more than
   /// split_own_margin_m (a part chosen by its size alone may be the other object's). A remembered
   /// box that encloses the object (the track's largest view covered it: a merge, a piece of
-  /// background beside it) would
-  /// otherwise outscore a continuation whose boundary moved by noise, and hand the object a
-  /// different object's id. false = the scores alone decide.
+  /// background beside it) would otherwise outscore a continuation whose boundary moved by
+  /// noise, and hand the object a different object's id. false = the scores alone decide.
   bool continuation_before_reacquire{true};
 
   /// @throws std::invalid_argument naming the key `tracker.<field>` and the value.
