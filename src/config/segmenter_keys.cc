@@ -24,6 +24,10 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(partition, min_still_share),
       CLUTTERSEG_SEGMENTER_KEY(partition, min_cover_share),
       CLUTTERSEG_SEGMENTER_KEY(partition, min_pixels),
+      CLUTTERSEG_SEGMENTER_KEY(partition, arrival_gap_frames),
+      CLUTTERSEG_SEGMENTER_KEY(partition, arrival_confirm_frames),
+      CLUTTERSEG_SEGMENTER_KEY(partition, arrival_min_share),
+      CLUTTERSEG_SEGMENTER_KEY(partition, arrival_moved_min_pixels),
 
       CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),

@@ -339,8 +339,8 @@ struct Daemon::Impl {
   }
 
   // A new partition prior (its history starts afresh) or none: frames of a stream only, with
-  // segmenter.partition.hold_frames > 1. Parameters equal to the running prior's keep it.
-  // Ordered completion, or before the lanes start.
+  // segmenter.partition.hold_frames > 1 or arrival_gap_frames > 0. Parameters equal to the running
+  // prior's keep it. Ordered completion, or before the lanes start.
   void SetPartitionPrior(const pipeline::SegmenterParams& params) {
     const pipeline::SegmenterParams p =
         pipeline::ForDecimatedFrames(params, config.camera.decimation);
@@ -348,7 +348,7 @@ struct Daemon::Impl {
       return;
     }
     partition.reset();
-    if (stream_source && p.partition.hold_frames > 1) {
+    if (stream_source && p.partition.enabled()) {
       partition = std::make_unique<pipeline::PartitionPrior>(p.partition, p.temporal);
     }
   }

@@ -57,13 +57,16 @@ struct CommandLine {
 };
 
 // Flushes standard output and checks that everything printed reached it (a full device, a
-// closed pipe); logs the failure naming `what` and returns false otherwise.
+// closed pipe); logs the failure naming `what` and returns false otherwise. A write that failed
+// while printing (more than a buffer's worth) left its errno; the caller clears errno first.
 bool StdoutWritten(const std::string& what) {
+  const int while_printing = errno;
   errno = 0;
   if (std::fflush(stdout) == 0 && std::ferror(stdout) == 0) return true;
+  const int error = errno != 0 ? errno : while_printing;
   Log(LogLevel::kError,
       "cannot write " + what + " to standard output: " +
-          (errno != 0 ? std::string(std::strerror(errno)) : std::string("the write failed")));
+          (error != 0 ? std::string(std::strerror(error)) : std::string("the write failed")));
   return false;
 }
 
@@ -193,7 +196,9 @@ int Run(int argc, char** argv) {
     return kExitUsage;
   }
   if (cl.print_config) {
-    std::fputs(ConfigToYaml(cfg).c_str(), stdout);
+    const std::string yaml = ConfigToYaml(cfg);
+    errno = 0;
+    std::fputs(yaml.c_str(), stdout);
     return StdoutWritten("the configuration (--print-config)") ? kExitOk : kExitFailure;
   }
   SetLogLevel(cfg.log_level);

@@ -35,22 +35,47 @@ void PartitionPriorParams::ValidateOrThrow() const {
   check.Require(min_cover_share >= 0.5f && min_cover_share < 1.f, "min_cover_share",
                 min_cover_share, "a share in [0.5, 1)");
   check.InRange("min_pixels", min_pixels, 1, 1 << 24);
+  check.InRange("arrival_gap_frames", arrival_gap_frames, 0, 100000, "(0 = off)");
+  check.InRange("arrival_confirm_frames", arrival_confirm_frames, 1, 255);
+  check.Require(arrival_min_share > 0.f && arrival_min_share <= 1.f, "arrival_min_share",
+                arrival_min_share, "a share in (0, 1]");
+  check.InRange("arrival_moved_min_pixels", arrival_moved_min_pixels, 1, 1 << 24);
 }
 
+namespace {
+
+SurfaceHistoryParams HistoryParams(const PartitionPriorParams& p,
+                                   const TemporalFilterParams& band) {
+  SurfaceHistoryParams h;
+  h.gap_frames = p.arrival_gap_frames;
+  h.confirm_frames = p.arrival_confirm_frames;
+  h.min_pixels = p.min_pixels;
+  h.min_share = p.arrival_min_share;
+  h.moved_min_pixels = p.arrival_moved_min_pixels;
+  h.band_at_1m_m = band.band_at_1m_m;
+  h.min_band_m = band.min_band_m;
+  return h;
+}
+
+}  // namespace
+
 PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_((params.ValidateOrThrow(), params)), band_(band) {}
+    : params_((params.ValidateOrThrow(), params)),
+      band_(band),
+      history_(HistoryParams(params, band)) {}
 
 PartitionPrior::~PartitionPrior() = default;
 
 void PartitionPrior::Reset() {
   have_prev_ = false;
+  history_.Reset();
   merges_.clear();
   splits_.clear();
 }
 
 size_t PartitionPrior::memory_bytes() const {
   return prev_labels_.capacity() * sizeof(uint32_t) + prev_z_.capacity() * sizeof(float) +
-         still_age_.capacity();
+         still_age_.capacity() + history_.memory_bytes();
 }
 
 bool PartitionPrior::Still(float z, float z_prev) const {
@@ -71,7 +96,7 @@ int PartitionPrior::Find(std::vector<int>* parent, int x) {
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                            SegmentationResult* result) {
   counts_ = PartitionPriorCounts{};
-  if (params_.hold_frames <= 1) return false;
+  if (!enabled()) return false;
   const int w = result->labels.width, h = result->labels.height;
   const size_t num_pixels = result->labels.data.size();
   if (!cloud.organized() || cloud.size() != num_pixels || w != cloud.width || h != cloud.height) {
@@ -79,13 +104,21 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     return false;
   }
   if (have_prev_ && (frame_seq <= prev_seq_ || w != width_ || h != height_)) Reset();
-  const uint32_t n = static_cast<uint32_t>(result->objects.size());
-  const uint32_t* labels = result->labels.data.data();
+  uint32_t* out = result->labels.data.data();
+  const uint32_t* labels = out;
+  // Surfaces of different arrival first: the hysteresis below then holds what they change too.
+  uint32_t n = static_cast<uint32_t>(result->objects.size());
+  const uint32_t with_arrivals = history_.Apply(cloud, frame_seq, n, out);
+  counts_.arrival_splits = history_.num_split();
+  counts_.arrival_moves = history_.num_moved();
+  const bool arrivals = history_.changed();
+  if (arrivals) n = Compact(with_arrivals + 1, out, num_pixels, out);
   if (!have_prev_) {
+    if (arrivals) Describe(cloud, n, result);
     counts_rp_.clear();
     Remember(cloud, *result, counts_rp_, false);
     prev_seq_ = frame_seq;
-    return false;
+    return arrivals;
   }
   const uint32_t m = static_cast<uint32_t>(prev_id_.size() - 1);
   const size_t stride = m + 1;
@@ -145,7 +178,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   uint32_t next_label = n + 1;
   std::vector<uint32_t>& covered = covered_;
   std::vector<int>& parent = parent_;
-  for (uint32_t r = 1; r <= n; ++r) {
+  const bool holding = params_.hold_frames > 1;
+  for (uint32_t r = 1; holding && r <= n; ++r) {
     covered.clear();
     for (uint32_t p = 1; p <= m; ++p) {
       if (still_p_[p] >= min_px &&
@@ -209,7 +243,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   }
 
   // Splits: still segments lying within one previous object, each covering nothing else.
-  for (uint32_t p = 1; p <= m; ++p) {
+  for (uint32_t p = 1; holding && p <= m; ++p) {
     if (still_p_[p] < min_px || !established(p)) continue;
     uint32_t keeper = 0, parts = 0;
     bool all_still = true;
@@ -240,80 +274,36 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   merges_.swap(new_merges_);
   splits_.swap(new_splits_);
 
-  const bool changed = counts_.held_merges > 0 || counts_.held_splits > 0;
-  if (!changed) {
+  const bool held = counts_.held_merges > 0 || counts_.held_splits > 0;
+  uint32_t num_labels = n;
+  if (held) {
+    // Output labels: joined parts to their keeper; pixels of a cut segment to the part of
+    // their previous object, or, having none, to the nearest part within the segment.
+    out_labels_.resize(num_pixels);
+    pending_.clear();
+    for (size_t i = 0; i < num_pixels; ++i) {
+      const uint32_t r = labels[i] <= n ? labels[i] : 0;
+      if (r != 0 && !split_[r].empty()) {
+        const uint32_t to = split_[r][prev_labels_[i]];
+        out_labels_[i] = to;
+        if (to == 0) pending_.push_back(static_cast<uint32_t>(i));
+      } else {
+        out_labels_[i] = map_[r];
+      }
+    }
+    FillFromNeighbours(labels, w, h, kMaxFillPasses, &pending_, &pending_next_, &taken_,
+                       out_labels_.data());
+    num_labels = Compact(next_label, out_labels_.data(), num_pixels, out);
+  }
+  if (!held && !arrivals) {
     Remember(cloud, *result, counts_rp_, true);
     prev_seq_ = frame_seq;
     return false;
   }
-
-  // Output labels before compaction: joined parts to their keeper; pixels of a cut segment to
-  // the part of their previous object, or, having none, to the nearest part (filled in passes
-  // over 4-neighbours within the segment; the labels taken in a pass are written after it).
-  out_labels_.resize(num_pixels);
-  pending_.clear();
-  for (size_t i = 0; i < num_pixels; ++i) {
-    const uint32_t r = labels[i] <= n ? labels[i] : 0;
-    if (r != 0 && !split_[r].empty()) {
-      const uint32_t to = split_[r][prev_labels_[i]];
-      out_labels_[i] = to;
-      if (to == 0) pending_.push_back(static_cast<uint32_t>(i));
-    } else {
-      out_labels_[i] = map_[r];
-    }
-  }
-  for (int pass = 0; pass < kMaxFillPasses && !pending_.empty(); ++pass) {
-    pending_next_.clear();
-    taken_.clear();
-    for (const uint32_t i : pending_) {
-      const uint32_t r = labels[i];
-      const int u = static_cast<int>(i % static_cast<size_t>(w));
-      const int v = static_cast<int>(i / static_cast<size_t>(w));
-      uint32_t take = 0;
-      const auto look = [&](int uu, int vv) {
-        if (take != 0 || uu < 0 || vv < 0 || uu >= w || vv >= h) return;
-        const size_t j = static_cast<size_t>(vv) * static_cast<size_t>(w) + static_cast<size_t>(uu);
-        if (labels[j] == r && out_labels_[j] != 0) take = out_labels_[j];
-      };
-      look(u - 1, v);
-      look(u + 1, v);
-      look(u, v - 1);
-      look(u, v + 1);
-      if (take == 0) {
-        pending_next_.push_back(i);
-      } else {
-        taken_.push_back(i);
-        taken_.push_back(take);
-      }
-    }
-    if (taken_.empty()) break;
-    for (size_t k = 0; k < taken_.size(); k += 2) out_labels_[taken_[k]] = taken_[k + 1];
-    pending_.swap(pending_next_);
-  }
-  for (const uint32_t i : pending_) out_labels_[i] = labels[i];  // unreached: the keeper's
-
-  // Compaction: labels in order, the cut parts after the segments.
-  std::vector<uint32_t>& final_label = final_label_;
-  std::vector<uint8_t>& used = used_;
-  final_label.assign(next_label, 0u);
-  used.assign(next_label, 0u);
-  for (size_t i = 0; i < num_pixels; ++i) used[out_labels_[i]] = 1;
-  uint32_t count = 0;
-  for (uint32_t l = 1; l < next_label; ++l) {
-    if (used[l]) final_label[l] = ++count;
-  }
-  uint32_t* out = result->labels.data.data();
-  for (size_t i = 0; i < num_pixels; ++i) out[i] = final_label[out_labels_[i]];
-  result->objects.assign(count, Object{});
-  for (uint32_t k = 0; k < count; ++k) result->objects[k].id = k + 1;
-  // The stage time stays the segmenter's; the recomputation is this step's time.
-  const double segmenter_objects_ms = result->times[Stage::kObjects];
-  extractor_.Compute(cloud, result);
-  result->times[Stage::kObjects] = segmenter_objects_ms;
+  Describe(cloud, num_labels, result);
 
   // The output against the previous frame, for the ids the next frame's counts refer to.
-  const uint32_t n_out = count;
-  counts_rp_.assign((n_out + 1) * stride, 0u);
+  counts_rp_.assign((num_labels + 1) * stride, 0u);
   for (size_t i = 0; i < num_pixels; ++i) {
     const float z = cloud.xyz[i].z;
     if (z > 0.f && Still(z, prev_z_[i])) ++counts_rp_[out[i] * stride + prev_labels_[i]];
@@ -321,6 +311,32 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   Remember(cloud, *result, counts_rp_, true);
   prev_seq_ = frame_seq;
   return true;
+}
+
+void PartitionPrior::Describe(const core::PointCloudView& cloud, uint32_t num_labels,
+                              SegmentationResult* result) {
+  result->objects.assign(num_labels, Object{});
+  for (uint32_t k = 0; k < num_labels; ++k) result->objects[k].id = k + 1;
+  // The stage time stays the segmenter's; the recomputation is this step's time.
+  const double segmenter_objects_ms = result->times[Stage::kObjects];
+  extractor_.Compute(cloud, result);
+  result->times[Stage::kObjects] = segmenter_objects_ms;
+}
+
+uint32_t PartitionPrior::Compact(uint32_t num_in, const uint32_t* in, size_t num_pixels,
+                                 uint32_t* out) {
+  // Labels in order of first use by label value: the segments, then the parts cut off.
+  std::vector<uint32_t>& final_label = final_label_;
+  std::vector<uint8_t>& used = used_;
+  final_label.assign(num_in, 0u);
+  used.assign(num_in, 0u);
+  for (size_t i = 0; i < num_pixels; ++i) used[in[i]] = 1;
+  uint32_t count = 0;
+  for (uint32_t l = 1; l < num_in; ++l) {
+    if (used[l]) final_label[l] = ++count;
+  }
+  for (size_t i = 0; i < num_pixels; ++i) out[i] = final_label[in[i]];
+  return count;
 }
 
 void PartitionPrior::Remember(const core::PointCloudView& cloud, const SegmentationResult& result,

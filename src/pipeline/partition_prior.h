@@ -7,6 +7,7 @@
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/pipeline/objects.h"
 #include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/pipeline/surface_history.h"
 #include "clutterseg/pipeline/temporal_filter.h"
 
 namespace clutterseg::pipeline {
@@ -34,6 +35,23 @@ struct PartitionPriorParams {
   /// Objects and segments with fewer still pixels than this are left as segmented.
   int min_pixels{100};
 
+  /// Objects by arrival (docs/method.md, "Objects by arrival"): a segment joining surfaces
+  /// that arrived in front of the camera more than this many frames apart (a box put flush
+  /// on a box that was there before) is split along them; 0 = off (the default: it raises
+  /// coverage of piles but flickers more; docs/results.md, "Objects by arrival"). 10 to try.
+  int arrival_gap_frames{0};
+  /// A new depth at a pixel is a surface (and its arrival counted from its first frame) once
+  /// measured within the band in this many consecutive frames; until then the split waits.
+  int arrival_confirm_frames{5};
+  /// A part of a segment of one arrival is split off when it holds at least min_pixels
+  /// pixels and this share of the segment's pixels of known arrival (0..1].
+  float arrival_min_share{0.05f};
+  /// An object next to at least this many pixels whose surface moved away (it uncovered what
+  /// was behind) has moved, and all of it counts as arrived then: a pushed object stays whole.
+  int arrival_moved_min_pixels{10};
+
+  /// Whether a PartitionPrior with these parameters changes anything (hold or arrivals on).
+  bool enabled() const { return hold_frames > 1 || arrival_gap_frames > 0; }
   /// @throws std::invalid_argument naming the key (`segmenter.partition.<field>`) and value.
   void ValidateOrThrow() const;
   bool operator==(const PartitionPriorParams&) const = default;
@@ -41,10 +59,12 @@ struct PartitionPriorParams {
 
 /// Counters of one Apply.
 struct PartitionPriorCounts {
-  int held_merges{0};    ///< segments cut back along the previous frame's boundaries
-  int held_splits{0};    ///< previous objects whose parts were joined back
-  int passed_merges{0};  ///< merges of still objects published (seen hold_frames in a row)
-  int passed_splits{0};  ///< splits of still objects published (seen hold_frames in a row)
+  int held_merges{0};     ///< segments cut back along the previous frame's boundaries
+  int held_splits{0};     ///< previous objects whose parts were joined back
+  int passed_merges{0};   ///< merges of still objects published (seen hold_frames in a row)
+  int passed_splits{0};   ///< splits of still objects published (seen hold_frames in a row)
+  int arrival_splits{0};  ///< segments split into parts of different arrival
+  int arrival_moves{0};   ///< objects that moved and count as arrived in this frame
 };
 
 /// Hysteresis on the partition of a stream (docs/method.md, "Temporal coherence"): where the
@@ -62,10 +82,16 @@ struct PartitionPriorCounts {
 /// object is held only once most of its pixels have been still for hold_frames frames, so a
 /// partition made in the frame of a change is not held either.
 ///
+/// Before the hysteresis, the objects by arrival (SurfaceHistory, the `arrival_*` keys; docs/
+/// method.md, "Objects by arrival"): segments joining surfaces put down at different times are
+/// split along them; the hysteresis then holds what that changes like any other change of the
+/// partition.
+///
 /// State per camera: the previous output's labels and depths and each pixel's still age (9
-/// bytes per pixel, 2.8 MB for 640 x 480), an id per previous object and a counter per pair of
-/// previous objects merged in the last frame and per previous object split in it. Reset by Reset(),
-/// a frame sequence number that does not increase, or a change of image size.
+/// bytes per pixel, 2.8 MB for 640 x 480) and the surface history (30 bytes per pixel), an id per
+/// previous object and a counter per pair of previous objects merged in the last frame and per
+/// previous object split in it. Reset by Reset(), a frame sequence number that does not increase,
+/// or a change of image size.
 ///
 /// Organized clouds only (an unorganized cloud is passed through and resets the state).
 /// Objects are renumbered 1..n and their statistics recomputed (ObjectExtractor) when a frame
@@ -104,7 +130,12 @@ class PartitionPrior {
     uint32_t id;
     int count;
   };
+  bool enabled() const { return params_.enabled(); }
   bool Still(float z, float z_prev) const;
+  // Objects 1..num_labels of result's labels, their statistics computed again.
+  void Describe(const core::PointCloudView& cloud, uint32_t num_labels, SegmentationResult* result);
+  // Renumbers labels [0, num_in) of `in` to 1..count in label order into `out` (may alias).
+  uint32_t Compact(uint32_t num_in, const uint32_t* in, size_t num_pixels, uint32_t* out);
   void Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
                 const std::vector<uint32_t>& counts, bool have_counts);
   static int Find(std::vector<int>* parent, int x);
@@ -113,6 +144,7 @@ class PartitionPrior {
   TemporalFilterParams band_;  // its band_at_1m_m and min_band_m
   PartitionPriorCounts counts_;
   ObjectExtractor extractor_;
+  SurfaceHistory history_;
 
   bool have_prev_{false};
   int64_t prev_seq_{0};

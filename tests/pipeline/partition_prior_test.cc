@@ -1,7 +1,10 @@
 // PartitionPrior: a merge or split of still objects is published only after hold_frames
 // frames in a row; anything that moved, and the first frames after a change, pass at once.
+// Objects by arrival: surfaces put down at different times are different objects; a pushed
+// object stays whole.
 #include "clutterseg/pipeline/partition_prior.h"
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <limits>
@@ -67,7 +70,28 @@ uint32_t At(const SegmentationResult& r, int u, int v) {
 PartitionPriorParams Hold(int frames) {
   PartitionPriorParams p;
   p.hold_frames = frames;
+  p.arrival_gap_frames = 0;  // the hysteresis alone
   return p;
+}
+
+// The defaults with the objects by arrival on (off by default), gap 10 frames.
+PartitionPriorParams Arrival() {
+  PartitionPriorParams p;
+  p.arrival_gap_frames = 10;
+  return p;
+}
+
+// A scene of depth(u, v) (metres) on the same grid.
+core::PointCloud SceneOf(const std::function<float(int, int)>& depth) {
+  core::PointCloud c = Scene();
+  for (int v = 0; v < kH; ++v) {
+    for (int u = 0; u < kW; ++u) {
+      const float z = depth(u, v);
+      c.xyz[static_cast<size_t>(v * kW + u)] =
+          core::Vec3f{(u - 40) * 0.002f * z, (v - 30) * 0.002f * z, z};
+    }
+  }
+  return c;
 }
 
 // Frames 1..4 of the two boxes segmented apart: the partition is established.
@@ -200,6 +224,112 @@ TEST(PartitionPrior, ARecomputedFrameKeepsTheSegmentersObjectsTime) {
   EXPECT_EQ(r.times[Stage::kObjects], 1234.5);
 }
 
+// ---- Objects by arrival --------------------------------------------------------------------
+
+// Box A (columns 10-29) stands from the first frame; box B (columns 30-49) is set flush beside
+// it at frame 30: the same depth, no boundary in any single frame, and the segmentation joins
+// them. From the frame B is confirmed (arrival_confirm_frames) on, they are two objects.
+TEST(PartitionPrior, ABoxSetFlushOnAnotherIsAnotherObject) {
+  const PartitionPriorParams defaults = Arrival();
+  PartitionPrior prior(defaults, TemporalFilterParams{});
+  const core::PointCloud a_only = Scene(0.9f, 1.0f), both = Scene();
+  const SegmentationResult a =
+      Segmentation([](int u, int v) { return v >= 10 && v < 40 && u >= 10 && u < 30 ? 1u : 0u; });
+  for (int64_t seq = 1; seq < 30; ++seq) {
+    SegmentationResult r = a;
+    prior.Apply(a_only, seq, &r);
+    EXPECT_EQ(r.objects.size(), 1u) << seq;
+  }
+  // B is confirmed in its arrival_confirm_frames-th frame; the hysteresis then holds the
+  // partition the still scene had (A and B joined) for hold_frames - 1 frames more.
+  const int64_t confirmed = 30 + defaults.arrival_confirm_frames - 1;
+  const int64_t published = confirmed + defaults.hold_frames - 1;
+  for (int64_t seq = 30; seq < 60; ++seq) {
+    SegmentationResult r = Merged();
+    prior.Apply(both, seq, &r);
+    if (seq < confirmed) {
+      EXPECT_EQ(r.objects.size(), 1u) << seq;  // as segmented
+    }
+    if (seq < published) continue;
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_NE(At(r, 20, 20), At(r, 40, 20)) << seq;
+    EXPECT_EQ(At(r, 11, 11), At(r, 28, 38)) << seq;
+    EXPECT_EQ(At(r, 31, 11), At(r, 48, 38)) << seq;
+    EXPECT_EQ(r.objects[At(r, 20, 20) - 1].num_points, 20u * 30u) << seq;
+  }
+  // Something passes in front of both for six frames and leaves: the surfaces come back with
+  // their arrivals, and the boxes stay two.
+  for (int64_t seq = 60; seq < 66; ++seq) {
+    SegmentationResult r = Merged();
+    prior.Apply(Scene(0.5f, 0.5f), seq, &r);
+  }
+  for (int64_t seq = 66; seq < 72; ++seq) {
+    SegmentationResult r = Merged();
+    prior.Apply(both, seq, &r);
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_NE(At(r, 20, 20), At(r, 40, 20)) << seq;
+  }
+  // Off: one object throughout.
+  PartitionPriorParams off = defaults;
+  off.arrival_gap_frames = 0;
+  PartitionPrior without(off, TemporalFilterParams{});
+  for (int64_t seq = 1; seq < 60; ++seq) {
+    SegmentationResult r = seq < 30 ? a : Merged();
+    without.Apply(seq < 30 ? a_only : both, seq, &r);
+    EXPECT_EQ(r.objects.size(), 1u) << seq;
+  }
+}
+
+// Objects there from the first frame have no arrival to tell them apart or together: two
+// boxes joined by the segmentation stay joined, two it separates stay separate.
+TEST(PartitionPrior, ObjectsThereFromTheStartAreLeftAsSegmented) {
+  PartitionPrior joined(Arrival(), TemporalFilterParams{});
+  PartitionPrior apart(Arrival(), TemporalFilterParams{});
+  const core::PointCloud cloud = Scene();
+  for (int64_t seq = 1; seq < 60; ++seq) {
+    SegmentationResult merged = Merged(), split = Split();
+    EXPECT_FALSE(joined.Apply(cloud, seq, &merged)) << seq;
+    EXPECT_FALSE(apart.Apply(cloud, seq, &split)) << seq;
+    EXPECT_EQ(merged.objects.size(), 1u);
+    EXPECT_EQ(split.objects.size(), 2u);
+  }
+}
+
+// Box A (columns 10-49) stands from the first frame and is pushed 4 columns to the right at
+// frame 30. Most of its pixels keep their depth, the leading columns arrive in front of the
+// wall and the trailing ones uncover it: it moved, and stays one object.
+TEST(PartitionPrior, APushedObjectStaysWhole) {
+  PartitionPrior prior(Arrival(), TemporalFilterParams{});
+  const auto box_at = [](int left) {
+    return [left](int u, int v) {
+      return v >= 10 && v < 40 && u >= left && u < left + 40 ? 0.9f : 1.0f;
+    };
+  };
+  const auto segment_at = [](int left) {
+    return Segmentation(
+        [left](int u, int v) { return v >= 10 && v < 40 && u >= left && u < left + 40 ? 1u : 0u; });
+  };
+  // Without the move (it needs more uncovered pixels than there are) the pushed box would be
+  // cut into its old part and its leading columns.
+  PartitionPriorParams blind = Arrival();
+  blind.arrival_moved_min_pixels = 1 << 20;
+  PartitionPrior without(blind, TemporalFilterParams{});
+  bool moved = false, cut_without = false;
+  for (int64_t seq = 1; seq < 60; ++seq) {
+    const int left = seq < 30 ? 10 : 14;
+    const core::PointCloud cloud = SceneOf(box_at(left));
+    SegmentationResult r = segment_at(left), w = segment_at(left);
+    prior.Apply(cloud, seq, &r);
+    without.Apply(cloud, seq, &w);
+    moved = moved || prior.counts().arrival_moves > 0;
+    cut_without = cut_without || w.objects.size() > 1;
+    ASSERT_EQ(r.objects.size(), 1u) << seq;
+    EXPECT_EQ(std::count(r.labels.data.begin(), r.labels.data.end(), 1u), 40 * 30) << seq;
+  }
+  EXPECT_TRUE(moved);
+  EXPECT_TRUE(cut_without);
+}
+
 TEST(PartitionPrior, RefusesBadParameters) {
   PartitionPriorParams p;
   p.hold_frames = 0;
@@ -210,6 +340,15 @@ TEST(PartitionPrior, RefusesBadParameters) {
   p = PartitionPriorParams{};
   p.min_still_share = 0.f;
   EXPECT_THROW(PartitionPrior(p, TemporalFilterParams{}), std::invalid_argument);
+  p = PartitionPriorParams{};
+  p.arrival_gap_frames = -1;
+  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
+  p = PartitionPriorParams{};
+  p.arrival_confirm_frames = 0;
+  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
+  p = PartitionPriorParams{};
+  p.arrival_min_share = 0.f;
+  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
 }
 
 }  // namespace

@@ -1,0 +1,306 @@
+#include "clutterseg/pipeline/surface_history.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace clutterseg::pipeline {
+namespace {
+
+constexpr uint8_t kRefKnown = 1;  // the surface's arrival is known
+constexpr uint8_t kOldKnown = 2;  // the previous surface's arrival is known
+constexpr uint8_t kOnCand = 4;    // the last measurement was a candidate, not the surface
+constexpr uint8_t kDirect = 8;    // the candidate began right after the surface was measured
+
+// Arrivals of fewer pixels than this (or than 0.5 % of a segment's) are scattered noise.
+constexpr uint32_t kMinArrivalPixels = 5;
+constexpr int kMaxFillPasses = 64;
+constexpr int kMovedRadius = 2;  // pixels around an uncovered pixel that are "next to" it
+
+}  // namespace
+
+void FillFromNeighbours(const uint32_t* in, int w, int h, int max_passes,
+                        std::vector<uint32_t>* pending, std::vector<uint32_t>* pending_next,
+                        std::vector<uint32_t>* taken, uint32_t* out) {
+  for (int pass = 0; pass < max_passes && !pending->empty(); ++pass) {
+    pending_next->clear();
+    taken->clear();
+    for (const uint32_t i : *pending) {
+      const uint32_t r = in[i];
+      const int u = static_cast<int>(i % static_cast<size_t>(w));
+      const int v = static_cast<int>(i / static_cast<size_t>(w));
+      uint32_t take = 0;
+      const auto look = [&](int uu, int vv) {
+        if (take != 0 || uu < 0 || vv < 0 || uu >= w || vv >= h) return;
+        const size_t j = static_cast<size_t>(vv) * static_cast<size_t>(w) + static_cast<size_t>(uu);
+        if (in[j] == r && out[j] != 0) take = out[j];
+      };
+      look(u - 1, v);
+      look(u + 1, v);
+      look(u, v - 1);
+      look(u, v + 1);
+      if (take == 0) {
+        pending_next->push_back(i);
+      } else {
+        taken->push_back(i);
+        taken->push_back(take);
+      }
+    }
+    if (taken->empty()) break;
+    for (size_t k = 0; k < taken->size(); k += 2) out[(*taken)[k]] = (*taken)[k + 1];
+    pending->swap(*pending_next);
+  }
+  for (const uint32_t i : *pending) out[i] = in[i];  // unreached: the segment's own label
+}
+
+void SurfaceHistory::Reset() { have_ = false; }
+
+int32_t SurfaceHistory::Arrival(size_t i) const {
+  // A pixel on a candidate not yet confirmed has none: a passing occluder or noise. (Counting
+  // a candidate in front as arrived at once split stacks up to confirm_frames earlier but lost
+  // coverage and switched more ids on the tuning recordings.)
+  const uint8_t f = flags_[i];
+  return (f & (kRefKnown | kOnCand)) == kRefKnown ? ref_birth_[i] : -1;
+}
+
+size_t SurfaceHistory::memory_bytes() const {
+  return (ref_z_.capacity() + old_z_.capacity() + cand_z_.capacity()) * sizeof(float) +
+         (ref_birth_.capacity() + ref_since_.capacity() + old_birth_.capacity() +
+          cand_since_.capacity()) *
+             sizeof(int32_t) +
+         cand_n_.capacity() + flags_.capacity();
+}
+
+void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  if (!have_ || num_pixels_ != cloud.size()) {
+    num_pixels_ = cloud.size();
+    ref_z_.assign(num_pixels_, nan);
+    old_z_.assign(num_pixels_, nan);
+    cand_z_.assign(num_pixels_, nan);
+    ref_birth_.assign(num_pixels_, 0);
+    ref_since_.assign(num_pixels_, 0);
+    old_birth_.assign(num_pixels_, 0);
+    cand_since_.assign(num_pixels_, 0);
+    cand_n_.assign(num_pixels_, 0);
+    flags_.assign(num_pixels_, 0);
+  }
+  uncovered_.clear();
+  uncovered_birth_.clear();
+  uncovered_since_.clear();
+  const int confirm = std::max(1, params_.confirm_frames);
+  for (size_t i = 0; i < num_pixels_; ++i) {
+    const float z = cloud.xyz[i].z;
+    if (!(z > 0.f)) continue;  // a hole changes nothing
+    uint8_t& f = flags_[i];
+    if (std::isnan(ref_z_[i])) {
+      // First measurement: arrived now (in the first frame: there from the start). A pixel
+      // that was a hole until something came in range in front of the camera saw it arrive.
+      ref_z_[i] = z;
+      ref_birth_[i] = ref_since_[i] = now;
+      f = kRefKnown;
+      continue;
+    }
+    const float band = std::max(params_.min_band_m, params_.band_at_1m_m * z * z);
+    if (std::abs(z - ref_z_[i]) <= band) {
+      ref_z_[i] = z;
+      f = static_cast<uint8_t>(f & ~kOnCand);
+      cand_n_[i] = 0;
+      continue;
+    }
+    if (!std::isnan(old_z_[i]) && std::abs(z - old_z_[i]) <= band) {
+      // The previous surface again (an occluder left, a covering object was taken away): it
+      // keeps its arrival; the surface it replaces becomes the previous one.
+      std::swap(ref_z_[i], old_z_[i]);
+      std::swap(ref_birth_[i], old_birth_[i]);
+      ref_z_[i] = z;
+      ref_since_[i] = now;
+      const uint8_t ref_known = (f & kOldKnown) ? kRefKnown : 0;
+      const uint8_t old_known = (f & kRefKnown) ? kOldKnown : 0;
+      f = static_cast<uint8_t>(ref_known | old_known);
+      cand_n_[i] = 0;
+      continue;
+    }
+    if ((f & kOnCand) && std::abs(z - cand_z_[i]) <= band) {
+      cand_z_[i] = z;
+      if (cand_n_[i] < 255) ++cand_n_[i];
+    } else {
+      // A new candidate: direct when the pixel showed its surface (or a hole) just before.
+      const bool direct = (f & kOnCand) == 0;
+      cand_z_[i] = z;
+      cand_since_[i] = now;
+      cand_n_[i] = 1;
+      f = static_cast<uint8_t>((f & ~kDirect) | kOnCand | (direct ? kDirect : 0));
+    }
+    if (cand_n_[i] < confirm) continue;
+    // The candidate is the pixel's surface now. Something put down in front of the surface
+    // arrived at the candidate's first frame; a surface behind it was uncovered.
+    const bool closer = z < ref_z_[i];
+    if (!closer && (f & kRefKnown)) {
+      uncovered_.push_back(static_cast<uint32_t>(i));
+      uncovered_birth_.push_back(ref_birth_[i]);
+      uncovered_since_.push_back(cand_since_[i]);
+    }
+    uint8_t nf = (closer && (f & kDirect)) ? kRefKnown : 0;
+    if (now - ref_since_[i] >= params_.gap_frames) {  // a lasting surface is remembered
+      old_z_[i] = ref_z_[i];
+      old_birth_[i] = ref_birth_[i];
+      if (f & kRefKnown) nf |= kOldKnown;
+    } else if (f & kOldKnown) {
+      nf |= kOldKnown;
+    }
+    ref_z_[i] = z;
+    ref_birth_[i] = ref_since_[i] = cand_since_[i];
+    cand_n_[i] = 0;
+    f = nf;
+  }
+}
+
+void SurfaceHistory::ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h) {
+  moved_.clear();
+  for (size_t k = 0; k < uncovered_.size(); ++k) {
+    const int u = static_cast<int>(uncovered_[k] % static_cast<uint32_t>(w));
+    const int v = static_cast<int>(uncovered_[k] / static_cast<uint32_t>(w));
+    // Each segment next to this pixel counts it once.
+    uint32_t seen[(2 * kMovedRadius + 1) * (2 * kMovedRadius + 1)];
+    int num_seen = 0;
+    for (int dv = -kMovedRadius; dv <= kMovedRadius; ++dv) {
+      for (int du = -kMovedRadius; du <= kMovedRadius; ++du) {
+        const int uu = u + du, vv = v + dv;
+        if (uu < 0 || vv < 0 || uu >= w || vv >= h) continue;
+        const uint32_t l =
+            labels[static_cast<size_t>(vv) * static_cast<size_t>(w) + static_cast<size_t>(uu)];
+        if (l == 0 || l > n || std::find(seen, seen + num_seen, l) != seen + num_seen) continue;
+        seen[num_seen++] = l;
+        const int32_t b = uncovered_birth_[k];
+        auto it = std::find_if(moved_.begin(), moved_.end(), [&](const Moved& m) {
+          return m.label == l && std::abs(m.birth - b) <= params_.gap_frames;
+        });
+        if (it == moved_.end()) {
+          moved_.push_back(Moved{l, b, uncovered_since_[k], 1});
+        } else {
+          ++it->count;
+          it->since = std::max(it->since, uncovered_since_[k]);
+        }
+      }
+    }
+  }
+  num_moved_ = 0;
+  const auto min_count = static_cast<uint32_t>(std::max(1, params_.moved_min_pixels));
+  moved_.erase(std::remove_if(moved_.begin(), moved_.end(),
+                              [&](const Moved& m) { return m.count < min_count; }),
+               moved_.end());
+  if (moved_.empty()) return;
+  num_moved_ = static_cast<int>(moved_.size());
+  for (size_t i = 0; i < num_pixels_; ++i) {
+    const uint32_t l = labels[i];
+    if (l == 0 || l > n || !(flags_[i] & kRefKnown)) continue;
+    for (const Moved& m : moved_) {
+      if (m.label == l && std::abs(ref_birth_[i] - m.birth) <= params_.gap_frames) {
+        ref_birth_[i] = std::max(ref_birth_[i], m.since);
+      }
+    }
+  }
+}
+
+uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, int64_t seq, uint32_t n,
+                               uint32_t* labels) {
+  num_split_ = 0;
+  num_moved_ = 0;
+  if (!have_) base_seq_ = seq;
+  const int64_t rel = std::clamp<int64_t>(seq - base_seq_, 0, std::numeric_limits<int32_t>::max());
+  const int32_t now = static_cast<int32_t>(rel);
+  changed_ = false;
+  if (params_.gap_frames <= 0) return n;  // off: no state kept
+  Update(cloud, now);
+  have_ = true;
+  const int w = cloud.width, h = cloud.height;
+  ApplyMoves(labels, n, w, h);
+
+  // Arrivals per segment, with their pixel counts.
+  births_.resize(n + 1);
+  for (auto& v : births_) v.clear();
+  for (size_t i = 0; i < num_pixels_; ++i) {
+    const uint32_t r = labels[i];
+    if (r == 0 || r > n) continue;
+    const int32_t b = Arrival(i);
+    if (b >= 0) births_[r].push_back(b);
+  }
+  uint32_t next = n + 1;
+  entries_.resize(n + 1);
+  to_.resize(n + 1);
+  bool any = false;
+  for (uint32_t r = 1; r <= n; ++r) {
+    std::vector<Entry>& es = entries_[r];
+    std::vector<uint32_t>& to = to_[r];
+    es.clear();
+    to.clear();
+    std::vector<int32_t>& bs = births_[r];
+    if (bs.size() < static_cast<size_t>(params_.min_pixels)) continue;
+    std::sort(bs.begin(), bs.end());
+    for (const int32_t b : bs) {
+      if (es.empty() || es.back().birth != b) es.push_back(Entry{b, 0});
+      ++es.back().count;
+    }
+    const auto total = static_cast<uint32_t>(bs.size());
+    // Groups: the arrivals of more than a few pixels in order, a new group after a gap of more
+    // than gap_frames. Scattered arrivals (a pixel's noise now and then measured as a surface
+    // in front) neither join groups nor make them; they go to the nearest part.
+    const uint32_t significant = std::max<uint32_t>(kMinArrivalPixels, total / 200);
+    const auto need = static_cast<uint32_t>(
+        std::max<float>(static_cast<float>(params_.min_pixels), params_.min_share * total));
+    std::vector<uint32_t>& group_px = group_px_;
+    group_px.clear();
+    to.assign(es.size(), 0u);
+    int32_t last = 0;
+    for (size_t k = 0; k < es.size(); ++k) {
+      if (es[k].count < significant) continue;
+      if (group_px.empty() || es[k].birth - last > params_.gap_frames) group_px.push_back(0);
+      last = es[k].birth;
+      to[k] = static_cast<uint32_t>(group_px.size());  // 1-based group
+      group_px.back() += es[k].count;
+    }
+    int groups = 0;
+    for (const uint32_t c : group_px) groups += c >= need ? 1 : 0;
+    if (groups < 2) {
+      to.clear();
+      continue;
+    }
+    // The first large group keeps the segment's label; small groups go to the nearest part.
+    std::vector<uint32_t>& label_of = label_of_;
+    label_of.assign(group_px.size() + 1, 0u);
+    bool first = true;
+    for (size_t g = 0; g < group_px.size(); ++g) {
+      if (group_px[g] < need) continue;
+      label_of[g + 1] = first ? r : next++;
+      first = false;
+    }
+    for (size_t k = 0; k < es.size(); ++k) to[k] = label_of[to[k]];
+    ++num_split_;
+    any = true;
+  }
+  if (!any) return n;
+  changed_ = true;
+
+  out_.resize(num_pixels_);
+  pending_.clear();
+  for (size_t i = 0; i < num_pixels_; ++i) {
+    const uint32_t r = labels[i] <= n ? labels[i] : 0;
+    out_[i] = r;
+    if (r == 0 || r > n || to_[r].empty()) continue;
+    uint32_t o = 0;
+    if (const int32_t b = Arrival(i); b >= 0) {
+      const std::vector<Entry>& es = entries_[r];
+      const auto it = std::lower_bound(es.begin(), es.end(), b,
+                                       [](const Entry& e, int32_t x) { return e.birth < x; });
+      if (it != es.end() && it->birth == b) o = to_[r][static_cast<size_t>(it - es.begin())];
+    }
+    out_[i] = o;
+    if (o == 0) pending_.push_back(static_cast<uint32_t>(i));
+  }
+  FillFromNeighbours(labels, w, h, kMaxFillPasses, &pending_, &pending_next_, &taken_, out_.data());
+  std::copy(out_.begin(), out_.end(), labels);
+  return next - 1;
+}
+
+}  // namespace clutterseg::pipeline

@@ -1,0 +1,120 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "clutterseg/core/point_cloud.h"
+
+namespace clutterseg::pipeline {
+
+/// Parameters of a SurfaceHistory. Their homes are PartitionPriorParams (the `arrival_*` keys
+/// of `segmenter.partition`) and TemporalFilterParams (the band); PartitionPrior fills them in.
+struct SurfaceHistoryParams {
+  /// Surfaces that arrived more than this many frames apart are different objects; 0 = off.
+  int gap_frames{0};
+  /// A new depth becomes the pixel's surface once it has been measured, within the band, in
+  /// this many consecutive frames (so noise and passing occluders are never surfaces).
+  int confirm_frames{5};
+  /// A part of a segment is split off when it holds at least this many pixels...
+  int min_pixels{100};
+  /// ...and this share of the segment's pixels of known arrival.
+  float min_share{0.05f};
+  /// A segment next to at least this many pixels that uncovered the background of one of its
+  /// surfaces (the surface moved away) has moved: its surfaces of that arrival take the new one.
+  int moved_min_pixels{10};
+  /// The depth band of a surface: band_at_1m_m z^2, at least min_band_m (metres).
+  float band_at_1m_m{0.007f};
+  float min_band_m{0.0045f};
+};
+
+/// When each pixel's surface arrived, and the split of segments that join surfaces of
+/// different arrival (docs/method.md, "Objects by arrival"). A box set flush on another box
+/// continues its faces without a crease, and no single frame can tell the two apart; a camera
+/// that watched the second box arrive can. Per pixel it keeps the surface it sees (depth and
+/// the frame its measurement began), the surface it saw before that one (so a surface that
+/// reappears after an occluder, or when what covered it is taken away, gets its arrival back)
+/// and a candidate surface not yet confirmed.
+///
+/// A surface's arrival is known when it appeared directly in front of the pixel's previous
+/// surface (something put down there); a surface that appeared behind what covered it (what
+/// an occluder or a removed object uncovers, never seen before) has no known arrival and
+/// follows its segment. A segment whose pixels of known arrival fall into groups more than
+/// gap_frames apart, each large enough, is split along them. An object that moves (pushed,
+/// picked up and put back) uncovers what was behind it; the segment next to such pixels takes
+/// the new arrival for all its surfaces of the old one, so a pushed object stays one object.
+///
+/// State per pixel: 30 bytes (9.2 MB for 640 x 480; memory_bytes()), none while off
+/// (gap_frames 0). Frame numbers are kept relative to the first frame after a Reset() (int32:
+/// two years at 30 Hz). Deterministic: the output depends only on the frames and labels given
+/// and their order. Thread-safety: not reentrant; one Apply at a time, frames in order.
+class SurfaceHistory {
+ public:
+  explicit SurfaceHistory(const SurfaceHistoryParams& params) : params_(params) {}
+
+  /// Forgets every pixel's history.
+  void Reset();
+
+  /// Updates the history with frame `seq` (an organized cloud, depths in metres, laid out like
+  /// `labels`), then splits the segments of `labels` (0 = none, 1..n objects) that hold
+  /// surfaces of different arrival. Parts split off take labels n+1, n+2, ...; returns the
+  /// number of labels (n when nothing was split; changed() says whether anything was). Pixels
+  /// of no known arrival in a split segment go to the nearest part within it.
+  uint32_t Apply(const core::PointCloudView& cloud, int64_t seq, uint32_t n, uint32_t* labels);
+
+  /// Segments split by the last Apply; segments that took a new arrival for having moved.
+  int num_split() const { return num_split_; }
+  int num_moved() const { return num_moved_; }
+  /// Whether the last Apply changed the labels.
+  bool changed() const { return changed_; }
+  size_t memory_bytes() const;
+
+ private:
+  struct Moved {
+    uint32_t label;
+    int32_t birth;  // arrival of the surface that moved away
+    int32_t since;  // frame of the move
+    uint32_t count;
+  };
+  struct Entry {
+    int32_t birth;
+    uint32_t count;
+  };
+  void Update(const core::PointCloudView& cloud, int32_t now);
+  // The arrival of pixel i's surface (relative frame), -1 when unknown.
+  int32_t Arrival(size_t i) const;
+  bool changed_{false};
+  void ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h);
+
+  SurfaceHistoryParams params_;
+  bool have_{false};
+  int64_t base_seq_{0};
+  size_t num_pixels_{0};
+  int num_split_{0}, num_moved_{0};
+
+  // Per pixel. z in metres (NaN = none); births and sinces relative to base_seq_.
+  std::vector<float> ref_z_, old_z_, cand_z_;
+  std::vector<int32_t> ref_birth_, ref_since_, old_birth_, cand_since_;
+  std::vector<uint8_t> cand_n_, flags_;
+
+  // Per frame.
+  std::vector<uint32_t> uncovered_;  // pixels that uncovered a surface of known arrival
+  std::vector<int32_t> uncovered_birth_, uncovered_since_;
+  std::vector<Moved> moved_;
+  std::vector<std::vector<int32_t>> births_;  // per segment: arrival of each pixel
+  std::vector<std::vector<Entry>> entries_;   // per segment: arrivals and pixel counts
+  std::vector<uint32_t> group_px_, label_of_;
+  std::vector<std::vector<uint32_t>> to_;  // per segment, per entry: output label (0 = fill)
+  std::vector<uint32_t> out_, pending_, pending_next_, taken_;
+};
+
+/// Gives each pixel i of `pending` (out[i] == 0) the output label of a 4-neighbour with the
+/// same input label `in` (an image `w` x `h`), in passes (the labels taken in a pass are
+/// written after it, so the order does not matter), up to `max_passes`; pixels still unreached
+/// take their input label. `pending_next` and `taken` are work buffers. Shared by the
+/// partition prior's cut and the arrival split.
+void FillFromNeighbours(const uint32_t* in, int w, int h, int max_passes,
+                        std::vector<uint32_t>* pending, std::vector<uint32_t>* pending_next,
+                        std::vector<uint32_t>* taken, uint32_t* out);
+
+}  // namespace clutterseg::pipeline
