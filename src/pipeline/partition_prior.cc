@@ -9,10 +9,6 @@
 namespace clutterseg::pipeline {
 namespace {
 
-// Passes of the fill that gives a cut segment's pixels of no previous part to the nearest
-// part; pixels still unreached after them go to the segment's largest part.
-constexpr int kMaxFillPasses = 64;
-
 template <typename T>
 T* FindCount(std::vector<T>* v, uint32_t a, uint32_t b) {
   for (T& c : *v) {
@@ -42,27 +38,8 @@ void PartitionPriorParams::ValidateOrThrow() const {
   check.InRange("arrival_moved_min_pixels", arrival_moved_min_pixels, 1, 1 << 24);
 }
 
-namespace {
-
-SurfaceHistoryParams HistoryParams(const PartitionPriorParams& p,
-                                   const TemporalFilterParams& band) {
-  SurfaceHistoryParams h;
-  h.gap_frames = p.arrival_gap_frames;
-  h.confirm_frames = p.arrival_confirm_frames;
-  h.min_pixels = p.min_pixels;
-  h.min_share = p.arrival_min_share;
-  h.moved_min_pixels = p.arrival_moved_min_pixels;
-  h.band_at_1m_m = band.band_at_1m_m;
-  h.min_band_m = band.min_band_m;
-  return h;
-}
-
-}  // namespace
-
 PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_((params.ValidateOrThrow(), params)),
-      band_(band),
-      history_(HistoryParams(params, band)) {}
+    : params_((params.ValidateOrThrow(), params)), band_(band), history_(params, band) {}
 
 PartitionPrior::~PartitionPrior() = default;
 
@@ -291,8 +268,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
         out_labels_[i] = map_[r];
       }
     }
-    FillFromNeighbours(labels, w, h, kMaxFillPasses, &pending_, &pending_next_, &taken_,
-                       out_labels_.data());
+    FillFromNeighbours(labels, w, h, &pending_, &pending_next_, &taken_, out_labels_.data());
     num_labels = Compact(next_label, out_labels_.data(), num_pixels, out);
   }
   if (!held && !arrivals) {

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "clutterseg/pipeline/partition_prior.h"
+
 namespace clutterseg::pipeline {
 namespace {
 
@@ -14,15 +16,16 @@ constexpr uint8_t kDirect = 8;    // the candidate began right after the surface
 
 // Arrivals of fewer pixels than this (or than 0.5 % of a segment's) are scattered noise.
 constexpr uint32_t kMinArrivalPixels = 5;
+// Passes of FillFromNeighbours; pixels still unreached after them keep their segment's label.
 constexpr int kMaxFillPasses = 64;
 constexpr int kMovedRadius = 2;  // pixels around an uncovered pixel that are "next to" it
 
 }  // namespace
 
-void FillFromNeighbours(const uint32_t* in, int w, int h, int max_passes,
-                        std::vector<uint32_t>* pending, std::vector<uint32_t>* pending_next,
-                        std::vector<uint32_t>* taken, uint32_t* out) {
-  for (int pass = 0; pass < max_passes && !pending->empty(); ++pass) {
+void FillFromNeighbours(const uint32_t* in, int w, int h, std::vector<uint32_t>* pending,
+                        std::vector<uint32_t>* pending_next, std::vector<uint32_t>* taken,
+                        uint32_t* out) {
+  for (int pass = 0; pass < kMaxFillPasses && !pending->empty(); ++pass) {
     pending_next->clear();
     taken->clear();
     for (const uint32_t i : *pending) {
@@ -52,6 +55,15 @@ void FillFromNeighbours(const uint32_t* in, int w, int h, int max_passes,
   }
   for (const uint32_t i : *pending) out[i] = in[i];  // unreached: the segment's own label
 }
+
+SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band)
+    : params_{params.arrival_gap_frames,
+              params.arrival_confirm_frames,
+              params.min_pixels,
+              params.arrival_moved_min_pixels,
+              params.arrival_min_share,
+              band.band_at_1m_m,
+              band.min_band_m} {}
 
 void SurfaceHistory::Reset() { have_ = false; }
 
@@ -88,7 +100,7 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
   uncovered_.clear();
   uncovered_birth_.clear();
   uncovered_since_.clear();
-  const int confirm = std::max(1, params_.confirm_frames);
+  const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
     const float z = cloud.xyz[i].z;
     if (!(z > 0.f)) continue;  // a hole changes nothing
@@ -186,7 +198,7 @@ void SurfaceHistory::ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h
     }
   }
   num_moved_ = 0;
-  const auto min_count = static_cast<uint32_t>(std::max(1, params_.moved_min_pixels));
+  const auto min_count = static_cast<uint32_t>(params_.moved_min_pixels);
   moved_.erase(std::remove_if(moved_.begin(), moved_.end(),
                               [&](const Moved& m) { return m.count < min_count; }),
                moved_.end());
@@ -298,7 +310,7 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, int64_t seq, u
     out_[i] = o;
     if (o == 0) pending_.push_back(static_cast<uint32_t>(i));
   }
-  FillFromNeighbours(labels, w, h, kMaxFillPasses, &pending_, &pending_next_, &taken_, out_.data());
+  FillFromNeighbours(labels, w, h, &pending_, &pending_next_, &taken_, out_.data());
   std::copy(out_.begin(), out_.end(), labels);
   return next - 1;
 }

@@ -5,28 +5,11 @@
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
+#include "clutterseg/pipeline/temporal_filter.h"
 
 namespace clutterseg::pipeline {
 
-/// Parameters of a SurfaceHistory. Their homes are PartitionPriorParams (the `arrival_*` keys
-/// of `segmenter.partition`) and TemporalFilterParams (the band); PartitionPrior fills them in.
-struct SurfaceHistoryParams {
-  /// Surfaces that arrived more than this many frames apart are different objects; 0 = off.
-  int gap_frames{0};
-  /// A new depth becomes the pixel's surface once it has been measured, within the band, in
-  /// this many consecutive frames (so noise and passing occluders are never surfaces).
-  int confirm_frames{5};
-  /// A part of a segment is split off when it holds at least this many pixels...
-  int min_pixels{100};
-  /// ...and this share of the segment's pixels of known arrival.
-  float min_share{0.05f};
-  /// A segment next to at least this many pixels that uncovered the background of one of its
-  /// surfaces (the surface moved away) has moved: its surfaces of that arrival take the new one.
-  int moved_min_pixels{10};
-  /// The depth band of a surface: band_at_1m_m z^2, at least min_band_m (metres).
-  float band_at_1m_m{0.007f};
-  float min_band_m{0.0045f};
-};
+struct PartitionPriorParams;  // partition_prior.h: the homes of its parameters
 
 /// When each pixel's surface arrived, and the split of segments that join surfaces of
 /// different arrival (docs/method.md, "Objects by arrival"). A box set flush on another box
@@ -50,7 +33,9 @@ struct SurfaceHistoryParams {
 /// and their order. Thread-safety: not reentrant; one Apply at a time, frames in order.
 class SurfaceHistory {
  public:
-  explicit SurfaceHistory(const SurfaceHistoryParams& params) : params_(params) {}
+  /// Its parameters are the `arrival_*` keys and min_pixels of `params` (0 arrival_gap_frames
+  /// = off, no state kept) and the depth band of `band` (band_at_1m_m, min_band_m).
+  SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band);
 
   /// Forgets every pixel's history.
   void Reset();
@@ -86,7 +71,11 @@ class SurfaceHistory {
   bool changed_{false};
   void ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h);
 
-  SurfaceHistoryParams params_;
+  struct Params {  // copied from PartitionPriorParams and TemporalFilterParams
+    int gap_frames, confirm_frames, min_pixels, moved_min_pixels;
+    float min_share, band_at_1m_m, min_band_m;
+  };
+  Params params_;
   bool have_{false};
   int64_t base_seq_{0};
   size_t num_pixels_{0};
@@ -110,11 +99,11 @@ class SurfaceHistory {
 
 /// Gives each pixel i of `pending` (out[i] == 0) the output label of a 4-neighbour with the
 /// same input label `in` (an image `w` x `h`), in passes (the labels taken in a pass are
-/// written after it, so the order does not matter), up to `max_passes`; pixels still unreached
-/// take their input label. `pending_next` and `taken` are work buffers. Shared by the
+/// written after it, so the order does not matter), at most 64; pixels still unreached take
+/// their input label. `pending_next` and `taken` are work buffers. Shared by the
 /// partition prior's cut and the arrival split.
-void FillFromNeighbours(const uint32_t* in, int w, int h, int max_passes,
-                        std::vector<uint32_t>* pending, std::vector<uint32_t>* pending_next,
-                        std::vector<uint32_t>* taken, uint32_t* out);
+void FillFromNeighbours(const uint32_t* in, int w, int h, std::vector<uint32_t>* pending,
+                        std::vector<uint32_t>* pending_next, std::vector<uint32_t>* taken,
+                        uint32_t* out);
 
 }  // namespace clutterseg::pipeline
