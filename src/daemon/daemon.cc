@@ -365,7 +365,7 @@ struct Daemon::Impl {
     if (!partition) return;
     const int64_t start_us = core::SteadyClockMicros();
     if (partition->Apply(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
-                         lane.result)) {
+                         lane.result, lane.segmenter->scene_depth())) {
       DescribeObjects(lane, out);
       if (overlay) out->overlay.labels = lane.result->labels;
     }

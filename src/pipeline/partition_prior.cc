@@ -71,7 +71,7 @@ int PartitionPrior::Find(std::vector<int>* parent, int x) {
 }
 
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
-                           SegmentationResult* result) {
+                           SegmentationResult* result, std::span<const float> scene_z) {
   counts_ = PartitionPriorCounts{};
   if (!enabled()) return false;
   const int w = result->labels.width, h = result->labels.height;
@@ -85,7 +85,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   const uint32_t* labels = out;
   // Surfaces of different arrival first: the hysteresis below then holds what they change too.
   uint32_t n = static_cast<uint32_t>(result->objects.size());
-  const uint32_t with_arrivals = history_.Apply(cloud, frame_seq, n, out);
+  const uint32_t with_arrivals = history_.Apply(cloud, scene_z, frame_seq, n, out);
   counts_.arrival_splits = history_.num_split();
   counts_.arrival_moves = history_.num_moved();
   const bool arrivals = history_.changed();

@@ -1,6 +1,7 @@
 #pragma once
 
 #include <cstdint>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -107,9 +108,13 @@ class PartitionPrior {
   PartitionPrior& operator=(const PartitionPrior&) = delete;
 
   /// Applies the hysteresis to `result`, the segmentation of `cloud` (same layout as its
-  /// labels), frame number `frame_seq`. Returns true when it changed the labels (and then the
-  /// objects, renumbered and recomputed). Never throws except std::bad_alloc.
-  bool Apply(const core::PointCloudView& cloud, int64_t frame_seq, SegmentationResult* result);
+  /// labels), frame number `frame_seq`. `scene_z` is the depth of the whole scene per pixel
+  /// (Segmenter::scene_depth(): before the support planes' interiors left the cloud) that the
+  /// objects by arrival follow; when it does not have one value per pixel, the cloud's z.
+  /// Returns true when it changed the labels (and then the objects, renumbered and
+  /// recomputed). Never throws except std::bad_alloc.
+  bool Apply(const core::PointCloudView& cloud, int64_t frame_seq, SegmentationResult* result,
+             std::span<const float> scene_z = {});
 
   /// Forgets the previous frames.
   void Reset();

@@ -48,6 +48,7 @@ struct Segmenter::Impl {
   ObjectExtractor objects;
 
   WorkingCloud work;
+  std::vector<float> scene_z;  // the working cloud's z before the support-first step
   geometry::PlanarRegions regions;
   std::vector<optimize::PlaneModel> fixed_planes;
   supervoxel::Supervoxels sv;
@@ -64,6 +65,8 @@ Segmenter::~Segmenter() = default;
 const SegmenterParams& Segmenter::params() const { return impl_->params; }
 
 const core::PointCloud& Segmenter::working_cloud() const { return impl_->work.cloud; }
+
+const std::vector<float>& Segmenter::scene_depth() const { return impl_->scene_z; }
 
 void Segmenter::Process(const core::PointCloudView& cloud, const core::CameraIntrinsics& intrinsics,
                         SegmentationResult* result) {
@@ -103,6 +106,11 @@ void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraInt
   result->num_support_first_points = 0;
   result->supervoxels_capped = false;
   result->objects_capped = false;
+  m.scene_z.clear();
+  if (m.params.partition.arrival_gap_frames > 0 && work.organized()) {
+    m.scene_z.resize(work.size());
+    for (size_t i = 0; i < work.size(); ++i) m.scene_z[i] = work.xyz[i].z;
+  }
   if (m.work.num_valid == 0) return;
 
   // Support first: the interior of the large planes leaves the working cloud (the points

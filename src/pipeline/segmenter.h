@@ -1,6 +1,7 @@
 #pragma once
 
 #include <memory>
+#include <vector>
 
 #include "clutterseg/core/camera_intrinsics.h"
 #include "clutterseg/core/point_cloud.h"
@@ -47,6 +48,12 @@ class Segmenter {
   /// gave to a large plane (params().support; SegmentationResult::num_support_first_points).
   /// Valid until the next call.
   const core::PointCloud& working_cloud() const;
+  /// The depth (z, metres, NaN = invalid) of each point of the working cloud before the
+  /// support-first step took the large planes' interiors out: the whole scene a stream's
+  /// surface history follows (PartitionPrior::Apply). Kept only for organized clouds and when
+  /// params().partition asks for objects by arrival (arrival_gap_frames > 0); empty otherwise.
+  /// Valid until the next call.
+  const std::vector<float>& scene_depth() const;
 
   const SegmenterParams& params() const;
 

@@ -13,6 +13,14 @@ constexpr uint8_t kRefKnown = 1;  // the surface's arrival is known
 constexpr uint8_t kOldKnown = 2;  // the previous surface's arrival is known
 constexpr uint8_t kOnCand = 4;    // the last measurement was a candidate, not the surface
 constexpr uint8_t kDirect = 8;    // the candidate began right after the surface was measured
+// Whether the surface was in a segment or in none (the support, the background) in the first
+// frame it was labelled, and the same for the previous surface.
+constexpr uint8_t kRefSeen = 16;
+constexpr uint8_t kRefBackground = 32;
+constexpr uint8_t kOldSeen = 64;
+constexpr uint8_t kOldBackground = 128;
+constexpr uint8_t kRefClass = kRefSeen | kRefBackground;
+constexpr uint8_t kOldClass = kOldSeen | kOldBackground;
 
 // Arrivals of fewer pixels than this (or than 0.5 % of a segment's) are scattered noise.
 constexpr uint32_t kMinArrivalPixels = 5;
@@ -71,8 +79,10 @@ int32_t SurfaceHistory::Arrival(size_t i) const {
   // A pixel on a candidate not yet confirmed has none: a passing occluder or noise. (Counting
   // a candidate in front as arrived at once split stacks up to confirm_frames earlier but lost
   // coverage and switched more ids on the tuning recordings.)
+  // Nor does a surface first seen as the background: the support around an object, where the
+  // object is within the depth band of the table behind it (the flank of a can lying down).
   const uint8_t f = flags_[i];
-  return (f & (kRefKnown | kOnCand)) == kRefKnown ? ref_birth_[i] : -1;
+  return (f & (kRefKnown | kOnCand | kRefBackground)) == kRefKnown ? ref_birth_[i] : -1;
 }
 
 size_t SurfaceHistory::memory_bytes() const {
@@ -83,7 +93,9 @@ size_t SurfaceHistory::memory_bytes() const {
          cand_n_.capacity() + flags_.capacity();
 }
 
-void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
+void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const float> scene_z,
+                            int32_t now) {
+  const bool scene = scene_z.size() == cloud.size();
   const float nan = std::numeric_limits<float>::quiet_NaN();
   if (!have_ || num_pixels_ != cloud.size()) {
     num_pixels_ = cloud.size();
@@ -102,7 +114,7 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
   uncovered_since_.clear();
   const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
-    const float z = cloud.xyz[i].z;
+    const float z = scene ? scene_z[i] : cloud.xyz[i].z;
     if (!(z > 0.f)) continue;  // a hole changes nothing
     uint8_t& f = flags_[i];
     if (std::isnan(ref_z_[i])) {
@@ -129,7 +141,8 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
       ref_since_[i] = now;
       const uint8_t ref_known = (f & kOldKnown) ? kRefKnown : 0;
       const uint8_t old_known = (f & kRefKnown) ? kOldKnown : 0;
-      f = static_cast<uint8_t>(ref_known | old_known);
+      f = static_cast<uint8_t>(ref_known | old_known | ((f & kOldClass) >> 2) |
+                               ((f & kRefClass) << 2));
       cand_n_[i] = 0;
       continue;
     }
@@ -158,8 +171,9 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, int32_t now) {
       old_z_[i] = ref_z_[i];
       old_birth_[i] = ref_birth_[i];
       if (f & kRefKnown) nf |= kOldKnown;
-    } else if (f & kOldKnown) {
-      nf |= kOldKnown;
+      nf |= static_cast<uint8_t>((f & kRefClass) << 2);
+    } else {
+      nf |= f & (kOldKnown | kOldClass);
     }
     ref_z_[i] = z;
     ref_birth_[i] = ref_since_[i] = cand_since_[i];
@@ -215,8 +229,8 @@ void SurfaceHistory::ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h
   }
 }
 
-uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, int64_t seq, uint32_t n,
-                               uint32_t* labels) {
+uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<const float> scene_z,
+                               int64_t seq, uint32_t n, uint32_t* labels) {
   num_split_ = 0;
   num_moved_ = 0;
   if (!have_) base_seq_ = seq;
@@ -224,10 +238,16 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, int64_t seq, u
   const int32_t now = static_cast<int32_t>(rel);
   changed_ = false;
   if (params_.gap_frames <= 0) return n;  // off: no state kept
-  Update(cloud, now);
+  Update(cloud, scene_z, now);
   have_ = true;
   const int w = cloud.width, h = cloud.height;
   ApplyMoves(labels, n, w, h);
+  for (size_t i = 0; i < num_pixels_; ++i) {  // surfaces labelled for the first time
+    uint8_t& f = flags_[i];
+    if ((f & (kRefSeen | kOnCand)) != 0 || std::isnan(ref_z_[i])) continue;
+    const uint32_t r = labels[i];
+    f = static_cast<uint8_t>(f | kRefSeen | (r == 0 || r > n ? kRefBackground : 0));
+  }
 
   // Arrivals per segment, with their pixel counts.
   births_.resize(n + 1);

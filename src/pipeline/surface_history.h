@@ -2,6 +2,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
@@ -22,10 +23,13 @@ struct PartitionPriorParams;  // partition_prior.h: the homes of its parameters
 /// A surface's arrival is known when it appeared directly in front of the pixel's previous
 /// surface (something put down there); a surface that appeared behind what covered it (what
 /// an occluder or a removed object uncovers, never seen before) has no known arrival and
-/// follows its segment. A segment whose pixels of known arrival fall into groups more than
-/// gap_frames apart, each large enough, is split along them. An object that moves (pushed,
-/// picked up and put back) uncovers what was behind it; the segment next to such pixels takes
-/// the new arrival for all its surfaces of the old one, so a pushed object stays one object.
+/// follows its segment. Nor has a surface that was in no segment the first frame it was
+/// labelled (the table, the wall): where an object put down is within the depth band of the
+/// support behind it (the flank of a can lying down) it shows the support's surface, whose
+/// arrival says nothing about the object. A segment whose pixels of known arrival fall into groups
+/// more than gap_frames apart, each large enough, is split along them. An object that moves
+/// (pushed, picked up and put back) uncovers what was behind it; the segment next to such pixels
+/// takes the new arrival for all its surfaces of the old one, so a pushed object stays one object.
 ///
 /// State per pixel: 30 bytes (9.2 MB for 640 x 480; memory_bytes()), none while off
 /// (gap_frames 0). Frame numbers are kept relative to the first frame after a Reset() (int32:
@@ -40,12 +44,14 @@ class SurfaceHistory {
   /// Forgets every pixel's history.
   void Reset();
 
-  /// Updates the history with frame `seq` (an organized cloud, depths in metres, laid out like
-  /// `labels`), then splits the segments of `labels` (0 = none, 1..n objects) that hold
+  /// Updates the history with frame `seq` (an organized cloud laid out like `labels`; the
+  /// depths read are `scene_z`'s, metres, NaN = invalid, when it has one per pixel, else the
+  /// cloud's z), then splits the segments of `labels` (0 = none, 1..n objects) that hold
   /// surfaces of different arrival. Parts split off take labels n+1, n+2, ...; returns the
   /// number of labels (n when nothing was split; changed() says whether anything was). Pixels
   /// of no known arrival in a split segment go to the nearest part within it.
-  uint32_t Apply(const core::PointCloudView& cloud, int64_t seq, uint32_t n, uint32_t* labels);
+  uint32_t Apply(const core::PointCloudView& cloud, std::span<const float> scene_z, int64_t seq,
+                 uint32_t n, uint32_t* labels);
 
   /// Segments split by the last Apply; segments that took a new arrival for having moved.
   int num_split() const { return num_split_; }
@@ -65,7 +71,7 @@ class SurfaceHistory {
     int32_t birth;
     uint32_t count;
   };
-  void Update(const core::PointCloudView& cloud, int32_t now);
+  void Update(const core::PointCloudView& cloud, std::span<const float> scene_z, int32_t now);
   // The arrival of pixel i's surface (relative frame), -1 when unknown.
   int32_t Arrival(size_t i) const;
   bool changed_{false};

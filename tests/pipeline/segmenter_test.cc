@@ -155,6 +155,24 @@ TEST_F(SegmenterTest, SupportFirstTakesOnlyTheTableAndKeepsTheObjects) {
     EXPECT_EQ(taken, with.num_support_first_points);
     EXPECT_EQ(taken_objects, 0u) << "seed " << seed;
 
+    // The scene's depth is kept only for a stream's objects by arrival, with the points taken.
+    EXPECT_TRUE(on.scene_depth().empty());
+    SegmenterParams arrival_params = params_;
+    arrival_params.partition.arrival_gap_frames = 10;
+    Segmenter arrival(arrival_params);
+    SegmentationResult same;
+    arrival.Process(r.cloud, r.intrinsics, &same);
+    EXPECT_EQ(same.labels.data, with.labels.data);
+    ASSERT_EQ(arrival.scene_depth().size(), r.cloud.size());
+    size_t kept = 0;
+    for (size_t i = 0; i < r.cloud.size(); ++i) {
+      const float z = arrival.scene_depth()[i];
+      if (std::isnan(z)) continue;
+      EXPECT_EQ(z, r.cloud.xyz[i].z);
+      kept += core::IsValid(arrival.working_cloud().xyz[i]) ? 0 : 1;
+    }
+    EXPECT_EQ(kept, with.num_support_first_points) << "seed " << seed;
+
     uint32_t support_points = 0;
     for (const Plane& p : with.planes) support_points += p.is_support ? p.num_points : 0;
     EXPECT_GE(support_points, with.num_support_first_points);
