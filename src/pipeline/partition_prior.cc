@@ -57,8 +57,7 @@ size_t PartitionPrior::memory_bytes() const {
 
 bool PartitionPrior::Still(float z, float z_prev) const {
   // NaN (no measurement) in either frame is not still.
-  const float band = std::max(band_.min_band_m, band_.band_at_1m_m * z * z);
-  return std::abs(z - z_prev) <= band;
+  return std::abs(z - z_prev) <= band_.BandAt(z);
 }
 
 int PartitionPrior::Find(std::vector<int>* parent, int x) {

@@ -65,13 +65,9 @@ void FillFromNeighbours(const uint32_t* in, int w, int h, std::vector<uint32_t>*
 }
 
 SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_{params.arrival_gap_frames,
-              params.arrival_confirm_frames,
-              params.min_pixels,
-              params.arrival_moved_min_pixels,
-              params.arrival_min_share,
-              band.band_at_1m_m,
-              band.min_band_m} {}
+    : params_{params.arrival_gap_frames, params.arrival_confirm_frames, params.min_pixels,
+              params.arrival_moved_min_pixels, params.arrival_min_share},
+      band_(band) {}
 
 void SurfaceHistory::Reset() { have_ = false; }
 
@@ -125,7 +121,7 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
       f = kRefKnown;
       continue;
     }
-    const float band = std::max(params_.min_band_m, params_.band_at_1m_m * z * z);
+    const float band = band_.BandAt(z);
     if (std::abs(z - ref_z_[i]) <= band) {
       ref_z_[i] = z;
       f = static_cast<uint8_t>(f & ~kOnCand);
@@ -242,18 +238,17 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   have_ = true;
   const int w = cloud.width, h = cloud.height;
   ApplyMoves(labels, n, w, h);
-  for (size_t i = 0; i < num_pixels_; ++i) {  // surfaces labelled for the first time
-    uint8_t& f = flags_[i];
-    if ((f & (kRefSeen | kOnCand)) != 0 || std::isnan(ref_z_[i])) continue;
-    const uint32_t r = labels[i];
-    f = static_cast<uint8_t>(f | kRefSeen | (r == 0 || r > n ? kRefBackground : 0));
-  }
 
   // Arrivals per segment, with their pixel counts.
   births_.resize(n + 1);
   for (auto& v : births_) v.clear();
   for (size_t i = 0; i < num_pixels_; ++i) {
     const uint32_t r = labels[i];
+    uint8_t& f = flags_[i];
+    if ((f & (kRefSeen | kOnCand)) == 0 && !std::isnan(ref_z_[i])) {
+      // A surface labelled for the first time: in a segment, or the support.
+      f = static_cast<uint8_t>(f | kRefSeen | (r == 0 || r > n ? kRefBackground : 0));
+    }
     if (r == 0 || r > n) continue;
     const int32_t b = Arrival(i);
     if (b >= 0) births_[r].push_back(b);

@@ -77,11 +77,12 @@ class SurfaceHistory {
   bool changed_{false};
   void ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h);
 
-  struct Params {  // copied from PartitionPriorParams and TemporalFilterParams
+  struct Params {  // copied from PartitionPriorParams
     int gap_frames, confirm_frames, min_pixels, moved_min_pixels;
-    float min_share, band_at_1m_m, min_band_m;
+    float min_share;
   };
   Params params_;
+  TemporalFilterParams band_;  // its depth band (BandAt)
   bool have_{false};
   int64_t base_seq_{0};
   size_t num_pixels_{0};

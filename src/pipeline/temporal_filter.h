@@ -1,5 +1,6 @@
 #pragma once
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string_view>
@@ -34,6 +35,9 @@ struct TemporalFilterParams {
   /// row before it is a hole (0 = a hole is always a hole). Its mean is kept either way, so a
   /// measurement after a dropout that lies within the band continues the average.
   int hole_fill_frames{0};
+
+  /// The band at depth `z_m` (metres): max(min_band_m, band_at_1m_m * z_m^2), metres.
+  float BandAt(float z_m) const { return std::max(min_band_m, band_at_1m_m * z_m * z_m); }
 
   /// @throws std::invalid_argument naming the key (`segmenter.temporal.<field>`) and value.
   void ValidateOrThrow() const;

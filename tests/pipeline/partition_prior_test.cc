@@ -381,24 +381,22 @@ TEST(PartitionPrior, TheSurfacesAreFollowedInTheSceneDepthNotTheSegmentedCloud) 
 }
 
 TEST(PartitionPrior, RefusesBadParameters) {
-  PartitionPriorParams p;
-  p.hold_frames = 0;
-  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
-  p = PartitionPriorParams{};
-  p.min_cover_share = 0.4f;
-  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
-  p = PartitionPriorParams{};
-  p.min_still_share = 0.f;
-  EXPECT_THROW(PartitionPrior(p, TemporalFilterParams{}), std::invalid_argument);
-  p = PartitionPriorParams{};
-  p.arrival_gap_frames = -1;
-  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
-  p = PartitionPriorParams{};
-  p.arrival_confirm_frames = 0;
-  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
-  p = PartitionPriorParams{};
-  p.arrival_min_share = 0.f;
-  EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument);
+  const std::function<void(PartitionPriorParams*)> bad[] = {
+      [](PartitionPriorParams* p) { p->hold_frames = 0; },
+      [](PartitionPriorParams* p) { p->min_cover_share = 0.4f; },
+      [](PartitionPriorParams* p) { p->min_still_share = 0.f; },
+      [](PartitionPriorParams* p) { p->arrival_gap_frames = -1; },
+      [](PartitionPriorParams* p) { p->arrival_confirm_frames = 0; },
+      [](PartitionPriorParams* p) { p->arrival_min_share = 0.f; },
+      [](PartitionPriorParams* p) { p->arrival_moved_min_pixels = 0; },
+  };
+  for (size_t k = 0; k < std::size(bad); ++k) {
+    PartitionPriorParams p;
+    bad[k](&p);
+    EXPECT_THROW(p.ValidateOrThrow(), std::invalid_argument) << k;
+    EXPECT_THROW(PartitionPrior(p, TemporalFilterParams{}), std::invalid_argument) << k;
+  }
+  EXPECT_NO_THROW(PartitionPriorParams{}.ValidateOrThrow());
 }
 
 }  // namespace
