@@ -70,7 +70,9 @@ struct Daemon::Impl {
             [this](const pipeline::FrameRunner::Lane& lane, uint64_t item,
                    const std::string* error) { Complete(lane, item, error); }) {
     if (config.overlay.enabled()) overlay = std::make_unique<OverlayWriter>(config.overlay);
-    if (config.track_objects) tracker = std::make_unique<pipeline::Tracker>(config.tracker);
+    if (config.track_objects) {
+      tracker = std::make_unique<pipeline::Tracker>(config.tracker, config.segmenter.temporal);
+    }
     if (extrinsics) {
       Log(LogLevel::kInfo, "objects in frame '" + extrinsics->parent_frame + "' (" +
                                config.camera.extrinsics_file + ")");
@@ -307,7 +309,8 @@ struct Daemon::Impl {
           pending_tracker_params.reset();
         }
       }
-      tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking);
+      tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking,
+                      lane.segmenter->working_cloud());
       ToTrackMessage(tracking, &out.messages.objects);
       if (out.extrinsics) LostTracksToParentFrame(*out.extrinsics, &out.messages.objects);
     }

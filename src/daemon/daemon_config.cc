@@ -129,7 +129,9 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.continuation_before_reacquire", &C::tracker,
                   &T::continuation_before_reacquire),
           MakeKey("tracker.mask_weight", &C::tracker, &T::mask_weight),
-          MakeKey("tracker.lost_score_factor", &C::tracker, &T::lost_score_factor)}) {
+          MakeKey("tracker.lost_score_factor", &C::tracker, &T::lost_score_factor),
+          MakeKey("tracker.surface_change_min_step_m", &C::tracker, &T::surface_change_min_step_m),
+          MakeKey("tracker.surface_change_min_share", &C::tracker, &T::surface_change_min_share)}) {
       k.push_back(std::move(key));
     }
     return config::KeyTable<DaemonConfig>(std::move(k));

@@ -90,6 +90,10 @@ void TrackerParams::ValidateOrThrow() const {
   check.InRange("mask_weight", mask_weight, 0.f, 1.f);
   check.Require(lost_score_factor > 0.f && lost_score_factor <= 1.f, "lost_score_factor",
                 lost_score_factor, "a factor in (0, 1]");
+  check.Require(surface_change_min_step_m > 0.f && surface_change_min_step_m <= 1.f,
+                "surface_change_min_step_m", surface_change_min_step_m, "a distance in (0, 1] m");
+  check.Require(surface_change_min_share > 0.f && surface_change_min_share <= 1.f,
+                "surface_change_min_share", surface_change_min_share, "a share in (0, 1]");
 }
 
 struct Tracker::Impl {
@@ -105,21 +109,59 @@ struct Tracker::Impl {
     Box box;
     float ref_points{0.f};  // decayed point count of the reference view
     Box ref_box;
+    // The reference view's surface, with the frame's depth: its pixels and their depth
+    // (metres), increasing pixel order (RememberSurface). Empty without depth.
+    std::vector<uint32_t> remembered_pixels;
+    std::vector<float> remembered_z;
     core::Vec3f own_centroid;  // of its last view that held no other track
   };
 
-  explicit Impl(const TrackerParams& p) : params(p) { params.ValidateOrThrow(); }
+  Impl(const TrackerParams& p, const TemporalFilterParams& b) : params(p), band(b) {
+    params.ValidateOrThrow();
+    band.ValidateOrThrow();
+  }
 
   void EndAll(TrackingResult* out) {
     for (const Track& t : tracks) out->ended_track_ids.push_back(t.id);
     tracks.clear();
     have_prev = false;
     prev_labels.clear();
+    prev_z.clear();
   }
 
-  void Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out);
+  void Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
+              const core::PointCloudView& cloud);
+
+  // Object `o` of `frame` (`num_pixels` pixels), `t`'s reference view, becomes its remembered
+  // surface (none without depth). Reads the object's image box; the whole image when the box
+  // does not hold all its pixels.
+  static void RememberSurface(const SegmentationResult& frame, const Object& o, uint32_t num_pixels,
+                              const core::PointCloudView& cloud, Track* t) {
+    t->remembered_pixels.clear();
+    t->remembered_z.clear();
+    const int w = frame.labels.width, h = frame.labels.height;
+    if (cloud.empty() || w <= 0 || h <= 0) return;
+    auto scan = [&](int u0, int v0, int u1, int v1) {
+      for (int v = v0; v <= v1; ++v) {
+        const size_t row = static_cast<size_t>(v) * static_cast<size_t>(w);
+        for (int u = u0; u <= u1; ++u) {
+          if (frame.labels.data[row + static_cast<size_t>(u)] != o.id) continue;
+          t->remembered_pixels.push_back(static_cast<uint32_t>(row + static_cast<size_t>(u)));
+          t->remembered_z.push_back(cloud.xyz[row + static_cast<size_t>(u)].z);
+        }
+      }
+    };
+    scan(std::clamp(o.pixel_min_u, 0, w - 1), std::clamp(o.pixel_min_v, 0, h - 1),
+         std::clamp(o.pixel_max_u, 0, w - 1), std::clamp(o.pixel_max_v, 0, h - 1));
+    if (t->remembered_pixels.size() < num_pixels) {
+      t->remembered_pixels.clear();
+      t->remembered_z.clear();
+      scan(0, 0, w - 1, h - 1);
+    }
+  }
 
   TrackerParams params;
+  const TemporalFilterParams band;
   std::vector<Track> tracks;  // by increasing id
   int64_t next_id{1};
   bool have_prev{false};      // a previous frame exists (prev_seq valid)
@@ -128,10 +170,20 @@ struct Tracker::Impl {
   int prev_width{0}, prev_height{0};
   std::vector<uint32_t> prev_labels;
   uint32_t prev_max_label{0};
+  // The depth of the previous frame's labelled pixels (metres; empty when it had no cloud).
+  std::vector<float> prev_z;
 
   // Per-frame work buffers.
   std::vector<int32_t> label_to_det;
   std::vector<uint32_t> counts;  // (prev label) x (current label) pixel contingency
+  // Of those, the pixels whose surface changed (a surface in front, or taken away).
+  std::vector<uint32_t> changed_counts;
+  std::vector<uint32_t> changed_size;  // per prev label
+  std::vector<uint8_t> changed_track;
+  // Per remembered track and object: the object's pixels showing the track's remembered
+  // surface (at its depth, within the band).
+  std::vector<uint32_t> shown;
+  size_t surface_layout{0};  // the pixel count the remembered surfaces index
   std::vector<uint32_t> prev_size, cur_size;
   std::vector<double> score, cost;
   std::vector<int32_t> row_to_col, det_track;
@@ -141,7 +193,8 @@ struct Tracker::Impl {
   optimize::AssignmentSolver solver;
 };
 
-void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out) {
+void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
+                           const core::PointCloudView& cloud) {
   out->frame_seq = seq;
   out->reset = false;
   out->objects.clear();
@@ -171,8 +224,21 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   const bool overlap = have_prev && num_pixels > 0 && prev_labels.size() == num_pixels &&
                        prev_width == frame.labels.width && prev_height == frame.labels.height;
   const size_t stride = static_cast<size_t>(cur_max_label) + 1;
+  // The frame's depth, in the labels' layout.
+  const bool with_depth = num_pixels > 0 && cloud.size() == num_pixels;
+  const bool compare_depth = overlap && with_depth && prev_z.size() == num_pixels;
+  if (with_depth && prev_z.size() != num_pixels) prev_z.assign(num_pixels, 0.f);
+  if (!with_depth) prev_z.clear();
+  if (with_depth && num_pixels != surface_layout) {  // another layout: forget the surfaces
+    for (Track& t : tracks) {
+      t.remembered_pixels.clear();
+      t.remembered_z.clear();
+    }
+    surface_layout = num_pixels;
+  }
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
+    changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
     // One pass counts the overlap and keeps this frame's labels for the next one. Most
     // pixels are background in both frames: blocks of 8 such pixels are skipped at once.
     uint32_t* prev = prev_labels.data();
@@ -186,6 +252,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
       prev[i] = c;
       ++counts[p * stride + c];
+      if (!with_depth) return;
+      const float z = cloud.xyz[i].z;
+      if (compare_depth && p != 0 &&
+          std::fabs(z - prev_z[i]) >=
+              std::max(params.surface_change_min_step_m, band.BandAt(prev_z[i]))) {
+        ++changed_counts[p * stride + c];  // false for NaN
+      }
+      prev_z[i] = z;
     };
     size_t i = 0;
     for (; i + 8 <= num_pixels; i += 8) {
@@ -198,18 +272,48 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     for (; i < num_pixels; ++i) visit(i);
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
+    changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     for (size_t p = 0; p <= prev_max_label; ++p) {
       for (size_t c = 0; c < stride; ++c) {
         const uint32_t n = counts[p * stride + c];
         prev_size[p] += n;
         cur_size[c] += n;
+        if (compare_depth) changed_size[p] += changed_counts[p * stride + c];
       }
     }
   }
+  // With depth: this frame's pixels by object, and how much of each remembered track's surface
+  // every object shows.
+  shown.assign(with_depth ? tracks.size() * static_cast<size_t>(num_dets) : 0, 0u);
+  for (size_t r = 0; r < shown.size() / std::max(num_dets, 1); ++r) {
+    const Track& t = tracks[r];
+    if (have_prev && t.last_seq == prev_seq) continue;  // visible: associated by its mask
+    const uint32_t* cur = frame.labels.data.data();
+    for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
+      const uint32_t i = t.remembered_pixels[k];
+      const uint32_t c = i < num_pixels ? cur[i] : 0;
+      if (c == 0 || c > cur_max_label || label_to_det[c] < 0) continue;
+      if (std::fabs(cloud.xyz[i].z - t.remembered_z[k]) <= band.BandAt(t.remembered_z[k])) {
+        ++shown[r * static_cast<size_t>(num_dets) + static_cast<size_t>(label_to_det[c])];
+      }
+    }
+  }
+  // Object d's pixel count.
+  auto det_pixel_count = [&](int d) -> uint32_t {
+    const Object& o = frame.objects[static_cast<size_t>(d)];
+    return overlap ? cur_size[o.id] : o.num_points;
+  };
+
   auto inter = [&](const Track& t, int d) -> uint32_t {
     const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
     if (!overlap || t.prev_label == 0 || id == 0) return 0;  // id 0 would be background
     return counts[t.prev_label * stride + id];
+  };
+  // Of inter(t, d), the pixels where the track's surface did not change.
+  auto unchanged = [&](const Track& t, int d) -> uint32_t {
+    const uint32_t i = inter(t, d);
+    if (i == 0 || !compare_depth) return i;
+    return i - changed_counts[t.prev_label * stride + frame.objects[static_cast<size_t>(d)].id];
   };
 
   // Association scores, tracks x objects; 0 = not allowed.
@@ -245,6 +349,15 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           s = mask_weight * iou + geo_weight * (near + BoxIou(box, t.box));
           allowed = true;
         }
+      } else if (with_depth && !t.remembered_pixels.empty()) {
+        // A remembered surface: the object shows it, at its depth, with most of its pixels.
+        const double n = shown[static_cast<size_t>(r) * num_dets + d];
+        const double size = det_pixel_count(d);
+        if (n > 0.0 && n >= params.part_min_fraction * size) {
+          s = params.lost_score_factor *
+              (0.5 * n / size + 0.5 * n / static_cast<double>(t.remembered_pixels.size()));
+          allowed = true;
+        }
       } else {
         const float dist = DistanceToBox(o.centroid, t.ref_box);
         const float inside = InsideShare(box, t.ref_box);
@@ -258,6 +371,33 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
   }
 
+  // A track whose surface mostly changed (hidden behind a new one, or taken away) continues
+  // only on what is left of it: an object lying mostly on its unchanged pixels.
+  changed_track.assign(static_cast<size_t>(num_tracks), 0);
+  if (compare_depth) {
+    for (int r = 0; r < num_tracks; ++r) {
+      const Track& t = tracks[static_cast<size_t>(r)];
+      if (t.prev_label == 0 || prev_size[t.prev_label] == 0 ||
+          changed_size[t.prev_label] < params.surface_change_min_share * prev_size[t.prev_label]) {
+        continue;
+      }
+      changed_track[static_cast<size_t>(r)] = 1;
+      for (int d = 0; d < num_dets; ++d) {
+        const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
+        const uint32_t i = unchanged(t, d);
+        if (i == 0 || i < params.part_min_fraction * size) {
+          score[static_cast<size_t>(r) * num_dets + d] = 0.0;
+        }
+      }
+    }
+  }
+  // The overlap that makes an object a part of a track, or a track absorbed by an object: the
+  // unchanged pixels of a changed track (a surface in front of it is not a part of it).
+  auto part_inter = [&](int r, int d) -> uint32_t {
+    const Track& t = tracks[static_cast<size_t>(r)];
+    return changed_track[static_cast<size_t>(r)] ? unchanged(t, d) : inter(t, d);
+  };
+
   merged_det.assign(static_cast<size_t>(num_dets), 0);
   split_by_size.assign(static_cast<size_t>(num_tracks), 0);
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
@@ -270,7 +410,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (t.prev_label == 0) continue;
       int parts = 0, best = -1;
       for (int d = 0; d < num_dets; ++d) {
-        const uint32_t i = inter(t, d);
+        const uint32_t i = part_inter(r, d);
         const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
         if (i == 0 || i < params.part_min_fraction * size) continue;
         ++parts;
@@ -288,7 +428,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           best = d;
         } else if ((!own || near_b + margin >= near_o) &&
                    (o.num_points > b.num_points ||
-                    (o.num_points == b.num_points && i > inter(t, best)))) {
+                    (o.num_points == b.num_points && i > part_inter(r, best)))) {
           best = d;
         }
       }
@@ -300,7 +440,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           Distance(frame.objects[static_cast<size_t>(best)].centroid, t.own_centroid);
       bool by_own = params.split_own_margin_m > 0.f;
       for (int d = 0; d < num_dets; ++d) {
-        const uint32_t i = inter(t, d);
+        const uint32_t i = part_inter(r, d);
         const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
         if (d != best && i > 0 && i >= params.part_min_fraction * size) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
@@ -316,7 +456,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       for (int r = 0; r < num_tracks; ++r) {
         const Track& t = tracks[static_cast<size_t>(r)];
         if (t.prev_label == 0) continue;
-        const uint32_t i = inter(t, d);
+        const uint32_t i = part_inter(r, d);
         if (i == 0 || i < params.part_min_fraction * prev_size[t.prev_label]) continue;
         ++absorbed;
         if (best < 0) {
@@ -326,7 +466,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         const Track& b = tracks[static_cast<size_t>(best)];
         // The larger object: its largest recent view (a track seen partly hidden keeps the
         // size it had), then the larger overlap; the older track on a tie.
-        const uint32_t ib = inter(b, d);
+        const uint32_t ib = part_inter(best, d);
         if (t.ref_points > b.ref_points || (t.ref_points == b.ref_points && i > ib)) best = r;
       }
       if (absorbed < 2) continue;
@@ -335,7 +475,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       for (int r = 0; r < num_tracks; ++r) {
         const Track& t = tracks[static_cast<size_t>(r)];
         if (r == best || t.prev_label == 0) continue;
-        const uint32_t i = inter(t, d);
+        const uint32_t i = part_inter(r, d);
         if (i > 0 && i >= params.part_min_fraction * prev_size[t.prev_label]) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
         }
@@ -353,10 +493,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       for (int r = 0; r < num_tracks && !claimed; ++r) {
         const Track& t = tracks[static_cast<size_t>(r)];
         const uint32_t i = inter(t, d);
+        const bool continues = score[static_cast<size_t>(r) * num_dets + d] > 0.0;
         claimed = t.prev_label != 0 && t.confirmed && !split_by_size[static_cast<size_t>(r)] &&
-                  score[static_cast<size_t>(r) * num_dets + d] > 0.0 && i > 0 &&
+                  continues && i > 0 &&
                   (i >= params.part_min_fraction * size || merged_det[static_cast<size_t>(d)]) &&
                   i >= params.part_min_fraction * prev_size[t.prev_label];
+        // What is left of a changed track (its score passed the surface-change rule).
+        claimed = claimed || (t.prev_label != 0 && t.confirmed && continues &&
+                              changed_track[static_cast<size_t>(r)]);
       }
       if (!claimed) continue;
       for (int r = 0; r < num_tracks; ++r) {
@@ -400,7 +544,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // Update the matched tracks, age the others, end the expired ones.
   kept.clear();
   for (int r = 0; r < num_tracks; ++r) {
-    Track t = tracks[static_cast<size_t>(r)];
+    Track t = std::move(tracks[static_cast<size_t>(r)]);
     const int d = row_to_col[static_cast<size_t>(r)];
     if (d >= 0) {
       const Object& o = frame.objects[static_cast<size_t>(d)];
@@ -421,6 +565,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (static_cast<float>(o.num_points) >= t.ref_points) {
         t.ref_points = static_cast<float>(o.num_points);
         t.ref_box = t.box;
+        if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
       }
       ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
       ot.track_id = t.id;
@@ -428,7 +573,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       ot.seen_frames = t.seen;
       ot.state = t.confirmed ? TrackState::kConfirmed : TrackState::kNew;
       ot.reacquired = !was_visible;
-      kept.push_back(t);
+      kept.push_back(std::move(t));
       continue;
     }
     t.prev_label = 0;
@@ -438,7 +583,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       out->ended_track_ids.push_back(t.id);
       continue;
     }
-    kept.push_back(t);
+    kept.push_back(std::move(t));
   }
   // New tracks for the objects left over, in object order (so ids increase with it).
   for (int d = 0; d < num_dets; ++d) {
@@ -455,6 +600,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     t.box = Box{o.aabb_min, o.aabb_max};
     t.ref_points = static_cast<float>(o.num_points);
     t.ref_box = t.box;
+    if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
     t.own_centroid = o.centroid;
     ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
     ot.track_id = t.id;
@@ -463,7 +609,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     ot.state = t.confirmed ? TrackState::kConfirmed : TrackState::kNew;
     ot.reacquired = false;
     ++out->counts.created;
-    kept.push_back(t);
+    kept.push_back(std::move(t));
   }
   tracks.swap(kept);
 
@@ -489,6 +635,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     for (size_t i = 0; i < num_pixels; ++i) {
       const uint32_t c = frame.labels.data[i];
       prev_labels[i] = c <= cur_max_label && label_to_det[c] >= 0 ? c : 0;
+      if (with_depth) prev_z[i] = cloud.xyz[i].z;
     }
   }
   prev_max_label = cur_max_label;
@@ -498,12 +645,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   have_prev = true;
 }
 
-Tracker::Tracker(const TrackerParams& params) : impl_(std::make_unique<Impl>(params)) {}
+Tracker::Tracker(const TrackerParams& params, const TemporalFilterParams& band)
+    : impl_(std::make_unique<Impl>(params, band)) {}
 Tracker::~Tracker() = default;
 
-void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out) {
+void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
+                     const core::PointCloudView& cloud) {
   const auto t0 = std::chrono::steady_clock::now();
-  impl_->Update(frame, frame_seq, out);
+  impl_->Update(frame, frame_seq, out, cloud);
   out->time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }

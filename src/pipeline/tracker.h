@@ -5,8 +5,10 @@
 #include <string_view>
 #include <vector>
 
+#include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/types.h"
 #include "clutterseg/pipeline/segmentation_result.h"
+#include "clutterseg/pipeline/temporal_filter.h"
 
 namespace clutterseg::pipeline {
 
@@ -37,8 +39,9 @@ struct TrackerParams {
   /// Box diagonals of an associated object and track differ by at most this factor (>= 1).
   float max_size_ratio{3.0f};
 
-  /// A remembered (lost) track is reacquired by an object whose centroid lies within this
-  /// distance of the track's remembered box, metres...
+  /// Without the frame's depth (Update's `cloud`), a remembered (lost) track is reacquired by
+  /// an object whose centroid lies within this distance of the track's remembered box,
+  /// metres...
   float reacquire_distance_m{0.03f};
   /// ...and whose box lies inside the remembered box by at least this share of its volume
   /// (0..1), so that a different object placed beside it does not take its id.
@@ -80,6 +83,20 @@ struct TrackerParams {
   /// background beside it) would otherwise outscore a continuation whose boundary moved by
   /// noise, and hand the object a different object's id. false = the scores alone decide.
   bool continuation_before_reacquire{true};
+
+  /// Surface change, with the frame's depth (Update's `cloud`): a pixel of a track's previous
+  /// mask changed when its depth moved by at least this much (and by more than the depth band,
+  /// segmenter.temporal) since the previous frame: something was put down on the track or
+  /// passed in front of it, or what the track showed was taken away. Metres; above the sensor's
+  /// noise and below an object's height, so that an object pushed or lifted at a usual speed
+  /// (under 45 cm/s at 30 Hz) keeps its depth within it at most of its pixels.
+  float surface_change_min_step_m{0.015f};
+  /// A track with at least this share of its previous mask changed continues only on an object
+  /// that lies on its unchanged pixels by at least part_min_fraction of the object's own pixels
+  /// (what is left of it in view); otherwise it is lost-but-remembered. So an object put down
+  /// on a track and merged with what is left of it gets a new id instead of the hidden
+  /// object's, and when it is taken away the object below gets its own id back (0..1].
+  float surface_change_min_share{0.5f};
 
   /// @throws std::invalid_argument naming the key `tracker.<field>` and the value.
   void ValidateOrThrow() const;
@@ -151,8 +168,10 @@ struct TrackingResult {
 /// associated when the object's pixels overlap the track's pixels of the previous frame
 /// (same label image layout: organized WxH or an unorganized 1xN cloud in the same point
 /// order), or their centroids are close and their sizes alike; a lost track only when the
-/// object lies in its remembered box. Splits keep the id on the largest part, merges on the
-/// largest track (see TrackerParams::part_min_fraction).
+/// object shows its remembered surface at its depth (with the frame's depth) or lies in its
+/// remembered box (without). With depth, a track whose mask mostly shows a new surface in front
+/// of it (or lost what it showed) continues only on what is left of it. Splits keep the id on the
+/// largest part, merges on the largest track (see TrackerParams::part_min_fraction).
 ///
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).
@@ -164,15 +183,23 @@ class Tracker {
   Tracker(const Tracker&) = delete;
   Tracker& operator=(const Tracker&) = delete;
 
-  /// @throws std::invalid_argument when `params` fail validation (naming the key).
-  explicit Tracker(const TrackerParams& params);
+  /// `band` is the depth band of the sensor's noise (TemporalFilterParams::BandAt) that tells
+  /// a surface that stayed from one that changed (TrackerParams::surface_change_min_step_m).
+  /// @throws std::invalid_argument when `params` or `band` fail validation (naming the key).
+  explicit Tracker(const TrackerParams& params, const TemporalFilterParams& band = {});
   ~Tracker();
 
   /// Tracks the objects of `frame`, the segmentation of the camera frame numbered
   /// `frame_seq` (increasing; gaps count as elapsed frames, a sequence number that does not
   /// increase resets the tracker), and fills `out` (reusing its storage). `frame` must hold
-  /// labels whose values are its objects' ids (as Segmenter produces). Never throws.
-  void Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out);
+  /// labels whose values are its objects' ids (as Segmenter produces). `cloud` is the frame's
+  /// points in the labels' layout (Segmenter::working_cloud(), metres); with it, a new surface
+  /// in front of a track does not take its id (TrackerParams::surface_change_min_share) and a
+  /// remembered track is reacquired only by an object that shows its remembered surface at its
+  /// depth. Empty or of another size: association by masks and geometry alone (a remembered
+  /// track by its box). Never throws.
+  void Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
+              const core::PointCloudView& cloud = {});
 
   /// Forgets every track (their ids are not reused) and the previous frame; the next Update
   /// reports them in ended_track_ids and sets TrackingResult::reset.

@@ -132,9 +132,13 @@ TEST_F(DaemonFrame, ExtrinsicsPutEveryGeometricFieldInTheParentFrame) {
   const std::string camera_log = (dir_ / "camera.lcmlog").string();
   const std::string base_log = (dir_ / "base.lcmlog").string();
   std::string err;
-  ASSERT_EQ(RunDaemon(camera_log, {}, &err), kExitOk) << err;
-  ASSERT_EQ(RunDaemon(base_log, {"--set", "camera.extrinsics_file=" + extrinsics}, &err), kExitOk)
-      << err;
+  // Every frame of the recording is another scene, so no track is confirmed: tentative tracks
+  // are remembered, for lost tracks to turn too.
+  const std::vector<std::string> remember = {"--set", "tracker.tentative_memory_frames=5"};
+  std::vector<std::string> with_pose = remember;
+  with_pose.insert(with_pose.end(), {"--set", "camera.extrinsics_file=" + extrinsics});
+  ASSERT_EQ(RunDaemon(camera_log, remember, &err), kExitOk) << err;
+  ASSERT_EQ(RunDaemon(base_log, with_pose, &err), kExitOk) << err;
   const auto cam = Messages<clutterseg::objects_t>(camera_log, "CLUTTERSEG_OBJECTS");
   const auto base = Messages<clutterseg::objects_t>(base_log, "CLUTTERSEG_OBJECTS");
   ASSERT_EQ(cam.size(), static_cast<size_t>(kFrames));

@@ -1,6 +1,7 @@
 #include "clutterseg/pipeline/tracker.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <set>
 #include <stdexcept>
@@ -294,6 +295,120 @@ TEST(TrackerContinuation, AnObjectWhoseBoundaryMovesKeepsItsIdBesideAnEnclosingR
   }
 }
 
+// Frames with depth: each surface is a rectangle at one depth, drawn in order (a later one in
+// front); surfaces that share a label are one segment (a merge). Pixel (u, v) of a surface at
+// depth z lies at (5 mm * u, 5 mm * v, z) and every object's box is 5 cm deep.
+struct Surface {
+  Rect rect;
+  float z;
+  uint32_t label;
+};
+
+SegmentationResult MakeDepthFrame(const std::vector<Surface>& surfaces, core::PointCloud* cloud,
+                                  int width = 120, int height = 80) {
+  SegmentationResult r;
+  r.width = width;
+  r.height = height;
+  r.labels.Reset(width, height, 0);
+  cloud->width = width;
+  cloud->height = height;
+  cloud->xyz.assign(static_cast<size_t>(width) * height, core::Vec3f{NAN, NAN, NAN});
+  uint32_t max_label = 0;
+  for (const Surface& f : surfaces) {
+    max_label = std::max(max_label, f.label);
+    for (int v = f.rect.v0; v < f.rect.v1; ++v) {
+      for (int u = f.rect.u0; u < f.rect.u1; ++u) {
+        r.labels.at(u, v) = f.label;
+        cloud->xyz[static_cast<size_t>(v) * width + u] = core::Vec3f{kPixelM * u, kPixelM * v, f.z};
+      }
+    }
+  }
+  for (uint32_t id = 1; id <= max_label; ++id) {
+    Object o;
+    o.id = id;
+    core::Vec3f lo{1e9f, 1e9f, 1e9f}, hi{-1e9f, -1e9f, -1e9f};
+    double sx = 0.0, sy = 0.0, sz = 0.0;
+    for (size_t i = 0; i < r.labels.data.size(); ++i) {
+      if (r.labels.data[i] != id) continue;
+      const core::Vec3f& p = cloud->xyz[i];
+      sx += p.x;
+      sy += p.y;
+      sz += p.z;
+      lo = core::Vec3f{std::min(lo.x, p.x), std::min(lo.y, p.y), std::min(lo.z, p.z)};
+      hi = core::Vec3f{std::max(hi.x, p.x), std::max(hi.y, p.y), std::max(hi.z, p.z)};
+      ++o.num_points;
+    }
+    EXPECT_GT(o.num_points, 0u) << "labels are 1..n, as the Segmenter numbers them";
+    const float n = static_cast<float>(o.num_points);
+    o.centroid = core::Vec3f{static_cast<float>(sx / n), static_cast<float>(sy / n),
+                             static_cast<float>(sz / n) + 0.025f};
+    o.aabb_min = lo;
+    o.aabb_max = core::Vec3f{hi.x, hi.y, hi.z + 0.05f};
+    r.objects.push_back(o);
+  }
+  return r;
+}
+
+class TrackerDepthTest : public ::testing::Test {
+ protected:
+  // One frame, to the tracker with its depth (and to a second tracker without it).
+  const TrackingResult& Step(const std::vector<Surface>& surfaces) {
+    const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud_);
+    no_depth_.Update(frame, seq_, &no_depth_out_);
+    dut_.Update(frame, seq_++, &out_, cloud_);
+    return out_;
+  }
+  Tracker dut_{TrackerParams{}};
+  Tracker no_depth_{TrackerParams{}};
+  int64_t seq_{0};
+  core::PointCloud cloud_;
+  TrackingResult out_, no_depth_out_;
+};
+
+TEST_F(TrackerDepthTest, AnObjectPutDownOnATrackDoesNotTakeItsId) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  for (int f = 0; f < 4; ++f) EXPECT_EQ(Ids(Step({a, b})), (std::vector<int64_t>{1, 2}));
+  // An object put down on kA hides most of it; the segmentation joins it to kA's rim.
+  const Surface on_a{Rect{12, 12, 28, 28}, 0.9f, 1};
+  for (int f = 0; f < 3; ++f) {
+    const TrackingResult& t = Step({a, on_a, b});
+    EXPECT_EQ(Ids(t), (std::vector<int64_t>{3, 2})) << "frame " << f;
+    EXPECT_TRUE(IsLost(t, 1));
+  }
+  // Without the depth the surface in front continues kA's track.
+  EXPECT_EQ(Ids(no_depth_out_), (std::vector<int64_t>{1, 2}));
+  // Taken away again: kA gets its id back from its remembered surface.
+  const TrackingResult& back = Step({a, b});
+  EXPECT_EQ(Ids(back), (std::vector<int64_t>{1, 2}));
+  EXPECT_TRUE(back.objects[0].reacquired);
+  EXPECT_TRUE(IsLost(back, 3));
+}
+
+TEST_F(TrackerDepthTest, WhatIsLeftInViewOfAHiddenTrackKeepsItsId) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  for (int f = 0; f < 4; ++f) Step({a, b});
+  // Two thirds of kA hidden by an object in front, segmented apart from kA's visible rest.
+  for (int f = 0; f < 3; ++f) {
+    const TrackingResult& t = Step({a, Surface{Rect{8, 8, 32, 24}, 0.9f, 3}, b});
+    EXPECT_EQ(Ids(t), (std::vector<int64_t>{1, 2, 3})) << "frame " << f;
+  }
+}
+
+TEST_F(TrackerDepthTest, ANewObjectWhereARememberedOneWasDoesNotTakeItsId) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2}, b_alone{kB, 1.0f, 1};
+  for (int f = 0; f < 4; ++f) Step({a, b});
+  for (int f = 0; f < 2; ++f) EXPECT_TRUE(IsLost(Step({b_alone}), 1));  // kA taken away
+  // Another object put where kA stood, 2 cm nearer: within kA's remembered box, but its
+  // surface is not kA's.
+  const Surface other{Rect{12, 12, 28, 28}, 0.98f, 1};
+  const TrackingResult& t = Step({other, b});
+  EXPECT_EQ(Ids(t), (std::vector<int64_t>{3, 2}));
+  EXPECT_EQ(Ids(no_depth_out_), (std::vector<int64_t>{1, 2}));  // by the box alone it would
+  // kA put back where it stood (and the other object gone) is kA again.
+  for (int f = 0; f < 2; ++f) Step({b_alone});
+  EXPECT_EQ(Ids(Step({a, b})), (std::vector<int64_t>{1, 2}));
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
@@ -419,6 +534,15 @@ TEST(TrackerParams, ValidationNamesTheKey) {
   p = {};
   p.lost_score_factor = 0.f;
   expect_key(p, "lost_score_factor");
+  p = {};
+  p.surface_change_min_step_m = 0.f;
+  expect_key(p, "surface_change_min_step_m");
+  p = {};
+  p.surface_change_min_share = 0.f;
+  expect_key(p, "surface_change_min_share");
+  TemporalFilterParams band;
+  band.min_band_m = -1.f;
+  EXPECT_THROW((Tracker{TrackerParams{}, band}), std::invalid_argument);
   p = {};
   p.confirm_frames = 0;
   EXPECT_THROW(Tracker{p}, std::invalid_argument);

@@ -58,7 +58,7 @@ inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::Seq
   Segmenter segmenter(SegmenterParams{}, pool);
   std::unique_ptr<TemporalDepthFilter> filter;  // the daemon's filter of a stream, when given
   if (temporal != nullptr) filter = std::make_unique<TemporalDepthFilter>(*temporal);
-  Tracker tracker(tracker_params);
+  Tracker tracker(tracker_params, temporal != nullptr ? *temporal : TemporalFilterParams{});
   // Flicker is counted once a change of the scene is two frames old (the default delay
   // before a new object is shown, TrackerParams{}.confirm_frames - 1), for every kind of id
   // and every tracker configuration alike.
@@ -79,7 +79,7 @@ inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::Seq
     if (filter) filter->Apply(&rendered.depth);
     synth::ToPointCloud(rendered, &cloud);
     segmenter.Process(cloud, scene.intrinsics, &result);
-    tracker.Update(result, static_cast<int64_t>(k), &tracking);
+    tracker.Update(result, static_cast<int64_t>(k), &tracking, segmenter.working_cloud());
     run.tracker_ms_total += tracking.time_ms;
     run.tracker_ms_max = std::max(run.tracker_ms_max, tracking.time_ms);
     eval::LabelCentroids(cloud.xyz, cloud.label, kMinGtPoints, &gt_ids, &gt_c);
