@@ -371,6 +371,24 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
   }
 
+  // An object that shows a remembered track's surface is that track showing again: a track
+  // not yet confirmed that began after it was lost (the object, segmented as new in the frames
+  // it showed again) does not keep it.
+  if (with_depth) {
+    for (int r = 0; r < num_tracks; ++r) {
+      const Track& l = tracks[static_cast<size_t>(r)];
+      if ((have_prev && l.last_seq == prev_seq) || l.remembered_pixels.empty()) continue;
+      for (int d = 0; d < num_dets; ++d) {
+        if (score[static_cast<size_t>(r) * num_dets + d] <= 0.0) continue;
+        for (int v = 0; v < num_tracks; ++v) {
+          const Track& t = tracks[static_cast<size_t>(v)];
+          if (!t.confirmed && t.first_seq > l.last_seq) {
+            score[static_cast<size_t>(v) * num_dets + d] = 0.0;
+          }
+        }
+      }
+    }
+  }
   // A track whose surface mostly changed (hidden behind a new one, or taken away) continues
   // only on what is left of it: an object lying mostly on its unchanged pixels.
   changed_track.assign(static_cast<size_t>(num_tracks), 0);

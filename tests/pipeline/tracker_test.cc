@@ -409,6 +409,30 @@ TEST_F(TrackerDepthTest, ANewObjectWhereARememberedOneWasDoesNotTakeItsId) {
   EXPECT_EQ(Ids(Step({a, b})), (std::vector<int64_t>{1, 2}));
 }
 
+TEST_F(TrackerDepthTest, AnObjectShowingAgainGetsItsIdBackFromTheNewTrackOfItsFirstFrames) {
+  // On a table (background), kA is seen with its left half only (its right half behind
+  // something not segmented).
+  const Surface table{Rect{0, 0, 120, 80}, 1.2f, 0};
+  const Surface left{Rect{10, 10, 20, 30}, 1.0f, 1}, b{kB, 1.0f, 2};
+  for (int f = 0; f < 4; ++f) Step({table, left, b});
+  // An arm in front hides it wholly; it is remembered (its surface: the left half).
+  for (int f = 0; f < 2; ++f) {
+    EXPECT_TRUE(IsLost(Step({table, Surface{Rect{5, 5, 35, 35}, 0.6f, 1}, b}), 1));
+  }
+  // The arm leaves the other way: the right half shows first, which is no remembered surface,
+  // so it starts a new track, and that track follows the object as more of it shows...
+  const TrackingResult& sliver = Step({table, Surface{Rect{20, 10, 30, 30}, 1.0f, 1}, b});
+  EXPECT_EQ(Ids(sliver), (std::vector<int64_t>{4, 2}));
+  EXPECT_EQ(Ids(Step({table, Surface{Rect{16, 10, 30, 30}, 1.0f, 1}, b})),
+            (std::vector<int64_t>{4, 2}));
+  // ...until the object shows its remembered surface with half its pixels: it is kA again (by
+  // the scores alone the new track would keep it: mask IoU 0.7 against a surface half shown).
+  const TrackingResult& whole = Step({table, Surface{kA, 1.0f, 1}, b});
+  EXPECT_EQ(Ids(whole), (std::vector<int64_t>{1, 2}));
+  EXPECT_TRUE(whole.objects[0].reacquired);
+  EXPECT_TRUE(Ended(whole, 4));
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
