@@ -362,6 +362,8 @@ struct Daemon::Impl {
       std::lock_guard<std::mutex> lock(partition_params_mutex);
       if (pending_partition_params) {
         SetPartitionPrior(*pending_partition_params);
+        // The tracker compares depths within the same band (one home: segmenter.temporal).
+        if (tracker) tracker->SetBand(pending_partition_params->temporal);
         pending_partition_params.reset();
       }
     }

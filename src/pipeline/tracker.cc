@@ -161,7 +161,7 @@ struct Tracker::Impl {
   }
 
   TrackerParams params;
-  const TemporalFilterParams band;
+  TemporalFilterParams band;
   std::vector<Track> tracks;  // by increasing id
   int64_t next_id{1};
   bool have_prev{false};      // a previous frame exists (prev_seq valid)
@@ -282,8 +282,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       }
     }
   }
-  // With depth: this frame's pixels by object, and how much of each remembered track's surface
-  // every object shows.
+  // With depth: how much of each remembered track's surface every object shows.
   shown.assign(with_depth ? tracks.size() * static_cast<size_t>(num_dets) : 0, 0u);
   for (size_t r = 0; r < shown.size() / std::max(num_dets, 1); ++r) {
     const Track& t = tracks[r];
@@ -562,6 +561,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // Update the matched tracks, age the others, end the expired ones.
   kept.clear();
   for (int r = 0; r < num_tracks; ++r) {
+    // Moved from: only its surface vectors empty; HoldsRememberedTrack reads the scalars.
     Track t = std::move(tracks[static_cast<size_t>(r)]);
     const int d = row_to_col[static_cast<size_t>(r)];
     if (d >= 0) {
@@ -680,6 +680,11 @@ void Tracker::Reset() { impl_->reset_pending = true; }
 void Tracker::SetParams(const TrackerParams& params) {
   params.ValidateOrThrow();
   impl_->params = params;
+}
+
+void Tracker::SetBand(const TemporalFilterParams& band) {
+  band.ValidateOrThrow();
+  impl_->band = band;
 }
 
 const TrackerParams& Tracker::params() const { return impl_->params; }

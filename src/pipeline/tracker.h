@@ -210,6 +210,10 @@ class Tracker {
   /// during Update.
   /// @throws std::invalid_argument when `params` fail validation (the old ones stay).
   void SetParams(const TrackerParams& params);
+  /// Replaces the depth band (a reload of `segmenter.temporal`), keeping every track. Not to
+  /// be called during Update.
+  /// @throws std::invalid_argument when `band` fails validation (the old one stays).
+  void SetBand(const TemporalFilterParams& band);
 
   const TrackerParams& params() const;
   /// The id the next new track will get.

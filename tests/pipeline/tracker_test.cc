@@ -409,6 +409,22 @@ TEST_F(TrackerDepthTest, ANewObjectWhereARememberedOneWasDoesNotTakeItsId) {
   EXPECT_EQ(Ids(Step({a, b})), (std::vector<int64_t>{1, 2}));
 }
 
+TEST_F(TrackerDepthTest, ANewBandDecidesWhichDepthsAreTheRememberedSurface) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2}, b_alone{kB, 1.0f, 1};
+  for (int f = 0; f < 4; ++f) Step({a, b});
+  TemporalFilterParams bad;
+  bad.min_band_m = -1.f;
+  EXPECT_THROW(dut_.SetBand(bad), std::invalid_argument);
+  // A band of 3 cm (a reload of segmenter.temporal): a surface 2 cm nearer where kA stood is
+  // kA's remembered surface; within the default band it was not
+  // (ANewObjectWhereARememberedOneWasDoesNotTakeItsId).
+  TemporalFilterParams wide;
+  wide.min_band_m = 0.03f;
+  dut_.SetBand(wide);
+  for (int f = 0; f < 2; ++f) EXPECT_TRUE(IsLost(Step({b_alone}), 1));
+  EXPECT_EQ(Ids(Step({Surface{Rect{12, 12, 28, 28}, 0.98f, 1}, b})), (std::vector<int64_t>{1, 2}));
+}
+
 TEST_F(TrackerDepthTest, AnObjectShowingAgainGetsItsIdBackFromTheNewTrackOfItsFirstFrames) {
   // On a table (background), kA is seen with its left half only (its right half behind
   // something not segmented).
