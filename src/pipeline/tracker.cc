@@ -567,6 +567,11 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     if (d >= 0) {
       const Object& o = frame.objects[static_cast<size_t>(d)];
       const bool was_visible = have_prev && t.last_seq == prev_seq;
+      // A confirmed track's view made mostly of pixels that were background in the previous
+      // frame (a new surface joined to it: an object put down against it) is neither its own
+      // view nor its reference view.
+      const bool own_view = !overlap || t.prev_label == 0 || !t.confirmed ||
+                            counts[o.id] < params.part_min_fraction * cur_size[o.id];
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
       ++t.seen;
@@ -576,11 +581,11 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       t.centroid = o.centroid;
       t.box = Box{o.aabb_min, o.aabb_max};
       if (params.split_own_margin_m <= 0.f ||
-          (!merged_det[static_cast<size_t>(d)] && !HoldsRememberedTrack(o, r))) {
+          (own_view && !merged_det[static_cast<size_t>(d)] && !HoldsRememberedTrack(o, r))) {
         t.own_centroid = o.centroid;
       }
       t.ref_points *= params.reference_decay;
-      if (static_cast<float>(o.num_points) >= t.ref_points) {
+      if (own_view && static_cast<float>(o.num_points) >= t.ref_points) {
         t.ref_points = static_cast<float>(o.num_points);
         t.ref_box = t.box;
         if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);

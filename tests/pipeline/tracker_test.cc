@@ -449,6 +449,29 @@ TEST_F(TrackerDepthTest, AnObjectShowingAgainGetsItsIdBackFromTheNewTrackOfItsFi
   EXPECT_TRUE(Ended(whole, 4));
 }
 
+// An object put down against kA is joined to it by the segmentation in the frame it arrives
+// (kA's track continues on the joined segment, most of it pixels that were background), then
+// segmented apart: kA keeps its id, although the newcomer is the larger part and lies nearer the
+// joined segment's centroid. The joined view is neither kA's own view nor its reference. Joined
+// and apart again, each gets its id back.
+TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  // 750 pixels against kA's 400, along its lower edge.
+  const Surface joined{Rect{10, 30, 40, 55}, 1.0f, 1}, apart{Rect{10, 30, 40, 55}, 1.0f, 3};
+  for (int f = 0; f < 4; ++f) Step({a, b});
+  ASSERT_EQ(Ids(out_), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(Ids(Step({a, b, joined})), (std::vector<int64_t>{1, 2}));
+  for (int k = 0; k < 3; ++k) {
+    const TrackingResult& t = Step({a, b, apart});
+    EXPECT_EQ(Ids(t), (std::vector<int64_t>{1, 2, 3})) << k;
+    EXPECT_EQ(t.counts.splits, 1) << k;
+    // Joined again, a merge of two tracks: the larger keeps the segment, kA is remembered.
+    const TrackingResult& m = Step({a, b, joined});
+    EXPECT_EQ(Ids(m), (std::vector<int64_t>{3, 2})) << k;
+    EXPECT_TRUE(IsLost(m, 1)) << k;
+  }
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
