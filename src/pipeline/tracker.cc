@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/optimize/assignment.h"
@@ -373,19 +374,23 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // An object that shows a remembered track's surface is that track showing again: a track
   // not yet confirmed that began after it was lost (the object, segmented as new in the frames
   // it showed again) does not keep it.
-  if (with_depth) {
+  for (int d = 0; d < num_dets && with_depth; ++d) {
+    // The earliest loss among the remembered tracks whose surface object d shows (in id
+    // order, leaving out those that a loss before them already rules out).
+    int64_t lost_since = std::numeric_limits<int64_t>::max();
     for (int r = 0; r < num_tracks; ++r) {
       const Track& l = tracks[static_cast<size_t>(r)];
-      if ((have_prev && l.last_seq == prev_seq) || l.remembered_pixels.empty()) continue;
-      for (int d = 0; d < num_dets; ++d) {
-        if (score[static_cast<size_t>(r) * num_dets + d] <= 0.0) continue;
-        for (int v = 0; v < num_tracks; ++v) {
-          const Track& t = tracks[static_cast<size_t>(v)];
-          if (!t.confirmed && t.first_seq > l.last_seq) {
-            score[static_cast<size_t>(v) * num_dets + d] = 0.0;
-          }
-        }
+      const bool remembered =
+          !(have_prev && l.last_seq == prev_seq) && !l.remembered_pixels.empty();
+      const bool ruled_out = !l.confirmed && l.first_seq > lost_since;
+      if (remembered && !ruled_out && score[static_cast<size_t>(r) * num_dets + d] > 0.0) {
+        lost_since = std::min(lost_since, l.last_seq);
       }
+    }
+    for (int v = 0; v < num_tracks; ++v) {
+      const Track& t = tracks[static_cast<size_t>(v)];
+      if (!t.confirmed && t.first_seq > lost_since)
+        score[static_cast<size_t>(v) * num_dets + d] = 0.0;
     }
   }
   // A track whose surface mostly changed (hidden behind a new one, or taken away) continues
