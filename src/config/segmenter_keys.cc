@@ -107,6 +107,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, support_release_fraction),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_release_min_height_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_release_enclosed_max_area_m2),
+      CLUTTERSEG_SEGMENTER_KEY(objects, support_flat_groups),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_passes),
       CLUTTERSEG_SEGMENTER_KEY(objects, support_reclaim_max_step_rel),
       CLUTTERSEG_SEGMENTER_KEY(objects, merge_small_groups),

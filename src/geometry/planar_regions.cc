@@ -257,6 +257,8 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   const core::ScopedTimer timer(&out->time_ms);
   out->regions.clear();
   out->num_taken_points = 0;
+  out->taken_bits.clear();
+  out->taken_words_per_row = 0;
   const size_t w = static_cast<size_t>(std::max(cloud->width, 0));
   const size_t h = static_cast<size_t>(std::max(cloud->height, 0));
   if (!params_.enabled || !cloud->organized() || w * h != cloud->xyz.size() || w == 0) return;
@@ -604,6 +606,8 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
   const size_t stride = (num_regions + 7) / 8 * 8 + 8;
   band_taken_.assign(num_bands * stride, 0);
   band_area_.assign(num_bands * stride, 0.0);
+  out->taken_words_per_row = words;
+  out->taken_bits.assign(h * words, 0);
   core::ForChunks(pool_, h, kRowGrain, [&](size_t v0, size_t v1) {
     uint32_t* const taken = &band_taken_[(v0 / kRowGrain) * stride];
     double* const area = &band_area_[(v0 / kRowGrain) * stride];
@@ -611,6 +615,7 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
       const uint64_t* const support = &support_bits_[v * words];
       const uint64_t* const near_object = &ring_bits_[v * words];
       const uint8_t* const which = &pixel_candidate_[v * w];
+      uint64_t* const taken_row = &out->taken_bits[v * words];
       core::Vec3f* const line = xyz + v * w;
       const size_t cell_row = (v / c) * cw;
       for (size_t cc = 0; cc < cw; ++cc) {
@@ -620,6 +625,7 @@ void PlanarRegionFinder::Compute(const core::CameraIntrinsics& intrinsics, float
         const size_t u0 = cc * c, u1 = std::min(w, (cc + 1) * c);
         ForRangeWords(u0, u1, [&](size_t k, uint64_t mask) {
           uint64_t take = support[k] & ~near_object[k] & mask;
+          taken_row[k] |= take;
           if (cand.count == 1) count[0] += static_cast<uint32_t>(__builtin_popcountll(take));
           for (; take != 0; take &= take - 1) {
             const size_t u = k * 64 + static_cast<size_t>(__builtin_ctzll(take));

@@ -79,7 +79,18 @@ struct PlanarRegion {
 struct PlanarRegions {
   std::vector<PlanarRegion> regions;  ///< largest first
   uint32_t num_taken_points{0};       ///< over all regions
-  double time_ms{0.0};                ///< wall time of the Compute that produced it
+  /// The pixels taken, one bit each: row v's bits are the taken_words_per_row 64-bit words
+  /// from v * taken_words_per_row, pixel u at bit u % 64 of word u / 64. Empty when nothing was
+  /// taken (no region, an unorganized cloud, the step disabled).
+  std::vector<uint64_t> taken_bits;
+  size_t taken_words_per_row{0};
+  /// Whether pixel (u, v) was taken; false outside the image or when nothing was.
+  bool Taken(size_t u, size_t v) const {
+    const size_t k = v * taken_words_per_row + u / 64;
+    return u / 64 < taken_words_per_row && k < taken_bits.size() &&
+           (taken_bits[k] >> (u % 64)) & 1u;
+  }
+  double time_ms{0.0};  ///< wall time of the Compute that produced it
 };
 
 /// Finds the large planes of an organized cloud on its pixel grid and takes their interior

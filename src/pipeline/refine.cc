@@ -482,13 +482,55 @@ void Refiner::CutVesselRims(const supervoxel::Supervoxels& sv, const graph::Patc
   }
 }
 
+void Refiner::MarkTouchingTaken(const supervoxel::Supervoxels& sv,
+                                const geometry::PlanarRegions& support_first) {
+  // A supervoxel touches the taken pixels when one of its pixels has a taken 4-neighbour.
+  const size_t w = static_cast<size_t>(sv.width), h = static_cast<size_t>(sv.height);
+  const int32_t* const pixel = sv.pixel_label.data();
+  for (size_t v = 0; v < h; ++v) {
+    for (size_t u = 0; u < w; ++u) {
+      const int32_t s = pixel[v * w + u];
+      if (s < 0 || touches_taken_[s]) continue;
+      if ((u > 0 && support_first.Taken(u - 1, v)) || support_first.Taken(u + 1, v) ||
+          (v > 0 && support_first.Taken(u, v - 1)) || support_first.Taken(u, v + 1)) {
+        touches_taken_[s] = 1;
+      }
+    }
+  }
+}
+
+void Refiner::MarkFlatGroups(const supervoxel::Supervoxels& sv,
+                             const optimize::PlaneLabeling& planes) {
+  // Per support plane, the largest distance of a group's supervoxel centroids from it; a
+  // group whose largest distance is within above_support_distance_m for some support plane
+  // lies flat on it.
+  const size_t n = sv.size();
+  const float limit = params_.above_support_distance_m;
+  for (size_t p = 0; p < planes.planes.size(); ++p) {
+    if (!support_[p]) continue;
+    const core::Vec3f nrm = planes.planes[p].normal;
+    const float d = planes.planes[p].d;
+    flat_distance_.assign(n, -1.f);
+    for (size_t i = 0; i < n; ++i) {
+      if (background_[i]) continue;
+      const int32_t g = Find(static_cast<int32_t>(i));
+      const core::Vec3f& c = sv.centroid[i];
+      const float dist = std::abs(nrm.x * c.x + nrm.y * c.y + nrm.z * c.z + d);
+      flat_distance_[g] = std::max(flat_distance_[g], dist);
+    }
+    for (size_t g = 0; g < n; ++g) {
+      if (flat_distance_[g] >= 0.f && flat_distance_[g] <= limit) group_flat_[g] = 1;
+    }
+  }
+}
+
 Refiner::Refiner(const ObjectParams& params, core::ThreadPool* pool)
     : params_((params.ValidateOrThrow(), params)), pool_(pool) {}
 
 void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::PointCloud& cloud,
                       const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
                       const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
-                      SegmentationResult* result) {
+                      SegmentationResult* result, const geometry::PlanarRegions* support_first) {
   const core::ScopedTimer timer(&result->times[Stage::kRefine]);
   const ObjectParams& params = params_;
   core::ThreadPool* const pool = pool_;
@@ -647,9 +689,16 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
     }
   }
 
-  // A group of released supervoxels alone is a piece of the support slightly off its fitted
-  // plane unless it stands clearly above it: background again.
-  if (release && params.support_release_min_height_m > 0.f) {
+  // Pieces of the support that are not on its plane: a group of released supervoxels alone
+  // that does not stand clearly above the plane (a piece of the table slightly off the
+  // fitted plane), and a group lying flat on a support (support_flat_groups: every one of its
+  // supervoxels' centroids within above_support_distance_m of the plane; a piece of the table
+  // the plane labelling gave another plane). Both are background again, unless walled in
+  // (below).
+  const bool release_low = release && params.support_release_min_height_m > 0.f;
+  group_flat_.assign(n, 0);
+  if (params.support_flat_groups) MarkFlatGroups(sv, planes);
+  if (release_low || params.support_flat_groups) {
     group_unreleased_.assign(n, 0);
     group_height_.assign(n, 0.0);
     group_height_points_.assign(n, 0);
@@ -667,8 +716,18 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
                           (double{pl.nx} * c.x + double{pl.ny} * c.y + double{pl.nz} * c.z + pl.d);
       group_height_points_[g] += sv.num_points[i];
     }
-    // Enclosed: the low released groups whose piece of the support (the connected support
-    // supervoxels and released-only groups around them) covers at most
+    // A group on the support (released alone, or flat) and one of those that is also low.
+    auto on_support_group = [&](int32_t g) {
+      return group_flat_[g] != 0 || (release && !group_unreleased_[g]);
+    };
+    auto low_group = [&](int32_t g) {
+      return group_flat_[g] != 0 ||
+             (release_low && !group_unreleased_[g] &&
+              group_height_[g] < double{params.support_release_min_height_m} *
+                                     static_cast<double>(group_height_points_[g]));
+    };
+    // Enclosed: the low groups whose piece of the support (the connected support
+    // supervoxels and the groups on the support around them) covers at most
     // support_release_enclosed_max_area_m2 and touches an object: the bottom inside a
     // pot or a bowl, a few millimetres above the table and walled in by it; the table itself
     // is one large piece. component_[s]: the piece of support supervoxel s (-1 for objects);
@@ -680,14 +739,21 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
       component_area_.clear();
       component_object_.clear();
       auto on_support = [&](size_t s) {
-        return background_[s] ||
-               (released_[s] && !group_unreleased_[Find(static_cast<int32_t>(s))]);
+        return background_[s] || on_support_group(Find(static_cast<int32_t>(s)));
       };
+      // A piece next to the pixels the support-first step took is the rest of that large
+      // plane: never walled in.
+      touches_taken_.assign(n, 0);
+      if (support_first != nullptr && !support_first->taken_bits.empty() && organized) {
+        MarkTouchingTaken(sv, *support_first);
+      }
+      component_open_.clear();
       pair_keys_.clear();
       for (size_t seed = 0; seed < n; ++seed) {
         if (component_[seed] >= 0 || !on_support(seed)) continue;
         const int32_t c = static_cast<int32_t>(component_area_.size());
         component_area_.push_back(0.0);
+        component_open_.push_back(0);
         component_object_.push_back(-1);
         stack_.assign(1, static_cast<uint32_t>(seed));
         component_[seed] = c;
@@ -695,6 +761,7 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
           const uint32_t s = stack_.back();
           stack_.pop_back();
           component_area_[c] += sv_area_[s];
+          component_open_[c] |= touches_taken_[s];
           for (uint32_t k = sv.adjacency_offsets[s]; k < sv.adjacency_offsets[s + 1]; ++k) {
             const uint32_t t = sv.adjacency[k];
             if (on_support(t)) {
@@ -719,27 +786,32 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
         }
       });
       for (size_t i = 0; i < n; ++i) {
-        if (!released_[i] || group_unreleased_[Find(static_cast<int32_t>(i))]) continue;
+        if (background_[i]) continue;
+        const int32_t g = Find(static_cast<int32_t>(i));
+        if (!on_support_group(g)) continue;
         const int32_t c = component_[i];
-        if (component_object_[c] >= 0 &&
+        if (component_object_[c] >= 0 && !component_open_[c] &&
             component_area_[c] <= double{params.support_release_enclosed_max_area_m2}) {
-          group_encloser_[Find(static_cast<int32_t>(i))] = component_object_[c];
+          group_encloser_[g] = component_object_[c];
         }
       }
     }
+    // The groups are read before any of them changes (a join below moves roots).
+    low_root_.assign(n, -1);
     for (size_t i = 0; i < n; ++i) {
-      if (!released_[i]) continue;
+      if (background_[i]) continue;
       const int32_t g = Find(static_cast<int32_t>(i));
-      if (group_unreleased_[g]) continue;
-      if (group_height_[g] < double{params.support_release_min_height_m} *
-                                 static_cast<double>(group_height_points_[g])) {
-        if (group_encloser_[g] < 0) {
-          background_[i] = 1;
-        } else if (params.container_max_axis_offset_rel > 0.f) {
-          // With container insides joined, a low enclosed bottom joins the vessel around it
-          // (a higher group, a book lying beside an object, stays an object of its own).
-          Union(static_cast<int32_t>(i), group_encloser_[g]);
-        }
+      if (low_group(g)) low_root_[i] = g;
+    }
+    for (size_t i = 0; i < n; ++i) {
+      const int32_t g = low_root_[i];
+      if (g < 0) continue;
+      if (group_encloser_[g] < 0) {
+        background_[i] = 1;
+      } else if (params.container_max_axis_offset_rel > 0.f) {
+        // With container insides joined, a low enclosed bottom joins the vessel around it
+        // (a higher group, a book lying beside an object, stays an object of its own).
+        Union(static_cast<int32_t>(i), group_encloser_[g]);
       }
     }
   }

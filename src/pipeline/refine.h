@@ -9,6 +9,7 @@
 #include "clutterseg/core/point_cloud.h"
 #include "clutterseg/core/thread_pool.h"
 #include "clutterseg/geometry/neighbor_index.h"
+#include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/optimize/planes.h"
@@ -20,11 +21,12 @@ namespace clutterseg::pipeline {
 
 /// Refinement (docs/method.md section 6): support planes become background, except support
 /// supervoxels that stand mostly above their plane (released; a group of released ones alone
-/// must stand clearly above it); the remaining supervoxels are grouped into objects by the
-/// initial segments (restricted to foreground and re-split where removing the background
-/// disconnected them) and by pieces of one non-support plane that touch with similar
-/// normals; groups smaller than min_object_points join their most connected neighbour (or
-/// are dropped); points of support supervoxels above the support next to an object take its
+/// must stand clearly above it, and a group lying flat on a support plane is support too,
+/// unless walled in by an object like the bottom inside a pot); the remaining supervoxels are
+/// grouped into objects by the initial segments (restricted to foreground and re-split where
+/// removing the background disconnected them) and by pieces of one non-support plane that touch
+/// with similar normals; groups smaller than min_object_points join their most connected neighbour
+/// (or are dropped); points of support supervoxels above the support next to an object take its
 /// label (reclaim). Object ids are assigned in the order of each object's first point (row-
 /// major in an organized cloud), so output is deterministic.
 ///
@@ -45,11 +47,14 @@ class Refiner {
   /// statistics) and its time in result->times[Stage::kRefine]. `intrinsics` are read only
   /// for an organized `cloud`. The passes over the points (two, in bands) and the reclaim's
   /// neighbour search run on the pool; the result does not depend on it. Nothing is allocated
-  /// once the buffers have grown to the largest frame.
+  /// once the buffers have grown to the largest frame. `support_first` (may be null) is the
+  /// frame's support-first step, whose taken pixels (the interior of the large planes, no
+  /// longer in `cloud`) tell a piece of the support next to them from one walled in by an
+  /// object (support_release_enclosed_max_area_m2).
   void Compute(const core::CameraIntrinsics& intrinsics, const core::PointCloud& cloud,
                const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
                const graph::LinkageResult& link, const optimize::PlaneLabeling& planes,
-               SegmentationResult* result);
+               SegmentationResult* result, const geometry::PlanarRegions* support_first = nullptr);
 
  private:
   // A plane n . x + d = 0 as four floats.
@@ -76,6 +81,11 @@ class Refiner {
   // Cuts off what lies beyond a vessel's rim (objects.vessel_rim_cut_margin_rel).
   void CutVesselRims(const supervoxel::Supervoxels& sv, const graph::PatchFeatures& features,
                      const optimize::PlaneLabeling& planes);
+  // touches_taken_[s] = 1 for the supervoxels with a pixel next to a pixel support_first took.
+  void MarkTouchingTaken(const supervoxel::Supervoxels& sv,
+                         const geometry::PlanarRegions& support_first);
+  // group_flat_[g] = 1 for the groups lying flat on a support plane (support_flat_groups).
+  void MarkFlatGroups(const supervoxel::Supervoxels& sv, const optimize::PlaneLabeling& planes);
   // The support plane nearest below the point sum * inv (on its camera side), -1 for none.
   int32_t SupportBelow(const optimize::PlaneLabeling& planes, const core::Vec3f& sum,
                        double inv) const;
@@ -100,8 +110,13 @@ class Refiner {
   std::vector<uint32_t> above_count_;
   std::vector<uint8_t> group_unreleased_;
   std::vector<int32_t> group_encloser_;
+  std::vector<uint8_t> group_flat_;        // per group root: it lies flat on a support
+  std::vector<float> flat_distance_;       // per group root, for one support plane, metres
+  std::vector<int32_t> low_root_;          // per supervoxel: its group when that is low, else -1
   std::vector<int32_t> component_;         // piece of the support of each supervoxel
   std::vector<double> component_area_;     // per piece, m^2
+  std::vector<uint8_t> component_open_;    // per piece: next to the large planes' taken pixels
+  std::vector<uint8_t> touches_taken_;     // per supervoxel: next to a taken pixel
   std::vector<double> sv_area_;            // per supervoxel on a plane, m^2 (as plane_area_)
   std::vector<int32_t> component_object_;  // per piece: the one object group it touches
   std::vector<uint32_t> stack_;

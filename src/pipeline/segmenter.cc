@@ -172,7 +172,7 @@ void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraInt
   times[Stage::kPlanes] = m.planes.hypotheses_ms;
   times[Stage::kExpansion] = m.planes.expansion_ms;
 
-  m.refiner.Compute(intrinsics, work, m.sv, m.patch, m.link, m.planes, result);
+  m.refiner.Compute(intrinsics, work, m.sv, m.patch, m.link, m.planes, result, &m.regions);
   m.objects.Compute(cloud, result);
 }
 
