@@ -86,6 +86,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(planes, max_planes),
       CLUTTERSEG_SEGMENTER_KEY(planes, duplicate_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(planes, duplicate_distance_m),
+      CLUTTERSEG_SEGMENTER_KEY(planes, fixed_fit_max_angle_deg),
       CLUTTERSEG_SEGMENTER_KEY(planes, smoothness_weight),
       CLUTTERSEG_SEGMENTER_KEY(planes, feature_weight),
       CLUTTERSEG_SEGMENTER_KEY(planes, no_plane_cost_factor),

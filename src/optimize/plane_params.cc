@@ -13,6 +13,7 @@ void PlaneParams::ValidateOrThrow() const {
   check.InRange("max_planes", max_planes, 0, 64);
   check.InRange("duplicate_angle_deg", duplicate_angle_deg, 0.01f, 90.f, "deg");
   check.InRange("duplicate_distance_m", duplicate_distance_m, 0.f, 10.f, "m");
+  check.InRange("fixed_fit_max_angle_deg", fixed_fit_max_angle_deg, 0.f, 90.f, "deg");
   check.InRange("smoothness_weight", smoothness_weight, 0.f, 1e6f);
   check.InRange("feature_weight", feature_weight, 0.f, 1e6f);
   check.InRange("no_plane_cost_factor", no_plane_cost_factor, 0.f, 1e6f);

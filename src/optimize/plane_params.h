@@ -23,10 +23,17 @@ struct PlaneParams {
   int max_planes{8};                  ///< stop after this many accepted planes
   float duplicate_angle_deg{5.0f};    ///< a candidate this close to an accepted plane ...
   float duplicate_distance_m{0.02f};  ///< ... and this near it is a duplicate
-  float smoothness_weight{1.0f};      ///< lambda of the Potts term (per edge)
-  float feature_weight{1.0f};         ///< scale of the feature term F
-  float no_plane_cost_factor{2.0f};   ///< D(l0) = factor * rho
-  int max_expansion_cycles{5};        ///< alpha-expansion sweeps over all labels
+  /// A plane found on the supervoxels along a fixed one (found before them on the pixel grid,
+  /// within duplicate_angle_deg and duplicate_distance_m) keeps its own fit when the two
+  /// normals lie within this angle, degrees: its fit to the ring of the support around the
+  /// objects follows the table there better. Farther apart, something lying on the plane (a
+  /// book's top) has pulled it over, and the fixed plane's fit is taken. 0 = always the fixed
+  /// fit; duplicate_angle_deg or more = always the found fit (the behaviour before 2026-12-06).
+  float fixed_fit_max_angle_deg{1.0f};
+  float smoothness_weight{1.0f};     ///< lambda of the Potts term (per edge)
+  float feature_weight{1.0f};        ///< scale of the feature term F
+  float no_plane_cost_factor{2.0f};  ///< D(l0) = factor * rho
+  int max_expansion_cycles{5};       ///< alpha-expansion sweeps over all labels
   /// Added to D_i(plane) when the patch normal is more than inlier_angle_deg from the plane
   /// normal (in units of rho; 0 = the paper's distance-only data term).
   float normal_mismatch_cost{2.0f};

@@ -278,10 +278,15 @@ void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFe
   }
   FindPlanes(f, &found_);
   // A fixed plane along a found one (normals within duplicate_angle_deg, offsets within
-  // duplicate_distance_m) is the same surface: the found plane, fitted to the supervoxels
-  // like every other, takes its points and area. A fixed plane with no match is a hypothesis
-  // of its own, ahead of the found ones.
+  // duplicate_distance_m) is the same surface: the found plane takes its points and area. It
+  // keeps its own fit, to the patches the supervoxels see of the plane (the ring around each
+  // object, which it follows best there), unless the normals differ by more than
+  // fixed_fit_max_angle_deg: a flat object's top a centimetre or two above the ring has then
+  // pulled the found plane over (a book lying alone on the table), and the fixed plane's fit,
+  // to the whole interior on the pixel grid, is taken. A fixed plane with no match is a
+  // hypothesis of its own, ahead of the found ones.
   const float dup_cos = static_cast<float>(std::cos(params_.duplicate_angle_deg * kDegToRad));
+  const float keep_cos = static_cast<float>(std::cos(params_.fixed_fit_max_angle_deg * kDegToRad));
   hypotheses_.clear();
   for (const PlaneModel& p : fixed) {
     PlaneModel* match = nullptr;
@@ -295,6 +300,10 @@ void PlaneLabeler::Label(const supervoxel::Supervoxels& sv, const graph::PatchFe
     if (match != nullptr) {
       match->fixed_points += p.fixed_points;
       match->fixed_area_m2 += p.fixed_area_m2;
+      if (Dot(p.normal, match->normal) < keep_cos) {
+        match->normal = p.normal;
+        match->d = p.d;
+      }
     } else {
       hypotheses_.push_back(p);
     }

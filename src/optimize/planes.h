@@ -60,7 +60,8 @@ class PlaneLabeler {
                PlaneLabeling* out);
   /// The same with `fixed` planes found before the supervoxels (fixed_points > 0). A found
   /// plane along a fixed one (within duplicate_angle_deg and duplicate_distance_m) takes its
-  /// fixed_points and fixed_area_m2 and keeps its own fit; a fixed plane no found plane
+  /// fixed_points and fixed_area_m2 and keeps its own fit unless the normals differ by more
+  /// than fixed_fit_max_angle_deg (then the fixed plane's fit); a fixed plane no found plane
   /// matches is a hypothesis ahead of the found ones. Planes holding fixed points stay in the
   /// output even with no supervoxel.
   void Compute(const supervoxel::Supervoxels& supervoxels, const graph::PatchFeatures& features,

@@ -484,7 +484,8 @@ void Refiner::CutVesselRims(const supervoxel::Supervoxels& sv, const graph::Patc
 
 void Refiner::MarkTouchingTaken(const supervoxel::Supervoxels& sv,
                                 const geometry::PlanarRegions& support_first) {
-  // A supervoxel touches the taken pixels when one of its pixels has a taken 4-neighbour.
+  // A supervoxel touches the taken pixels when one of its pixels has a taken 4-neighbour;
+  // supervoxels already marked (touching, or kSkip) are not looked at again.
   const size_t w = static_cast<size_t>(sv.width), h = static_cast<size_t>(sv.height);
   const int32_t* const pixel = sv.pixel_label.data();
   for (size_t v = 0; v < h; ++v) {
@@ -745,7 +746,10 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
       // plane: never walled in.
       touches_taken_.assign(n, 0);
       if (support_first != nullptr && !support_first->taken_bits.empty() && organized) {
+        // Only the supervoxels of the support's pieces are looked at (kSkip: the others).
+        for (size_t s = 0; s < n; ++s) touches_taken_[s] = on_support(s) ? 0 : kSkip;
         MarkTouchingTaken(sv, *support_first);
+        for (uint8_t& t : touches_taken_) t = t == kSkip ? 0 : t;
       }
       component_open_.clear();
       pair_keys_.clear();

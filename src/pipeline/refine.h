@@ -117,6 +117,7 @@ class Refiner {
   std::vector<double> component_area_;     // per piece, m^2
   std::vector<uint8_t> component_open_;    // per piece: next to the large planes' taken pixels
   std::vector<uint8_t> touches_taken_;     // per supervoxel: next to a taken pixel
+  static constexpr uint8_t kSkip = 2;      // touches_taken_: not a piece of the support
   std::vector<double> sv_area_;            // per supervoxel on a plane, m^2 (as plane_area_)
   std::vector<int32_t> component_object_;  // per piece: the one object group it touches
   std::vector<uint32_t> stack_;

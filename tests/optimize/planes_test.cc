@@ -115,6 +115,57 @@ TEST(PlaneLabeler, LabelsTableAndWallButNotTheBoxes) {
   EXPECT_GE(out.expansion_cycles, 1);
 }
 
+TEST(PlaneLabeler, AFoundPlaneAlongAFixedOneTakesItsFitWhenTheyDisagree) {
+  // The fixed plane (found on the pixel grid before the supervoxels) is the table turned by
+  // 2 degrees and moved by 5 mm: within duplicate_angle_deg / duplicate_distance_m of the
+  // plane found on the supervoxels, so the two are one hypothesis, with the fixed plane's
+  // points and area, and, 2 degrees being more than fixed_fit_max_angle_deg, its fit.
+  const Scene s = MakeScene();
+  core::Vec3f table_n;
+  float table_d;
+  gt::TablePlane(s.scene, &table_n, &table_d);
+  const double a = 2.0 * 3.14159265358979 / 180.0;
+  PlaneModel fixed;
+  fixed.normal =
+      core::Vec3f{table_n.x, static_cast<float>(std::cos(a) * table_n.y - std::sin(a) * table_n.z),
+                  static_cast<float>(std::sin(a) * table_n.y + std::cos(a) * table_n.z)};
+  fixed.d = table_d + 0.005f;
+  fixed.fixed_points = 1000;
+  fixed.fixed_area_m2 = 0.5f;
+  ASSERT_NEAR(AngleDeg(fixed.normal, table_n), 2.0, 0.01);
+  PlaneLabeler dut(PlaneParams{});
+  PlaneLabeling out;
+  dut.Compute(s.sv, s.f, {fixed}, &out);
+  int holders = 0;
+  for (const PlaneModel& p : out.planes) {
+    if (p.fixed_points == 0) {
+      // No other plane along the table is left.
+      EXPECT_FALSE(AngleDeg(p.normal, table_n) < 5.0 && std::fabs(p.d - table_d) < 0.02f);
+      continue;
+    }
+    ++holders;
+    EXPECT_EQ(p.fixed_points, 1000u);
+    EXPECT_FLOAT_EQ(p.fixed_area_m2, 0.5f);
+    EXPECT_FLOAT_EQ(p.normal.y, fixed.normal.y);
+    EXPECT_FLOAT_EQ(p.normal.z, fixed.normal.z);
+    EXPECT_FLOAT_EQ(p.d, fixed.d);
+    EXPECT_GT(p.num_patches, 0u);  // the found plane's supervoxels, not a hypothesis of its own
+  }
+  EXPECT_EQ(holders, 1);
+  // Allowed to differ by up to 5 degrees, the found plane keeps its own fit (the table).
+  PlaneParams keep;
+  keep.fixed_fit_max_angle_deg = 5.f;
+  PlaneLabeler(keep).Compute(s.sv, s.f, {fixed}, &out);
+  holders = 0;
+  for (const PlaneModel& p : out.planes) {
+    if (p.fixed_points == 0) continue;
+    ++holders;
+    EXPECT_LT(AngleDeg(p.normal, table_n), 0.5);
+    EXPECT_NEAR(p.d, table_d, 0.001f);
+  }
+  EXPECT_EQ(holders, 1);
+}
+
 TEST(PlaneLabeler, NoPlaneWhenTooFewPatches) {
   const Scene s = MakeScene();
   PlaneParams p;
