@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 
@@ -502,25 +503,26 @@ void Refiner::MarkTouchingTaken(const supervoxel::Supervoxels& sv,
 
 void Refiner::MarkFlatGroups(const supervoxel::Supervoxels& sv,
                              const optimize::PlaneLabeling& planes) {
-  // Per support plane, the largest distance of a group's supervoxel centroids from it; a
-  // group whose largest distance is within above_support_distance_m for some support plane
-  // lies flat on it.
+  // Per support plane, the largest height of a group's supervoxel centroids above it; a
+  // group none of whose supervoxels stands more than above_support_distance_m above some
+  // support plane lies flat on it (or below it, as the table's front edge does).
   const size_t n = sv.size();
   const float limit = params_.above_support_distance_m;
   for (size_t p = 0; p < planes.planes.size(); ++p) {
     if (!support_[p]) continue;
     const core::Vec3f nrm = planes.planes[p].normal;
     const float d = planes.planes[p].d;
-    flat_distance_.assign(n, -1.f);
+    // Read only at the groups' roots (supervoxels not in the background).
+    flat_distance_.assign(n, -std::numeric_limits<float>::infinity());
     for (size_t i = 0; i < n; ++i) {
       if (background_[i]) continue;
       const int32_t g = Find(static_cast<int32_t>(i));
       const core::Vec3f& c = sv.centroid[i];
-      const float dist = std::abs(nrm.x * c.x + nrm.y * c.y + nrm.z * c.z + d);
-      flat_distance_[g] = std::max(flat_distance_[g], dist);
+      const float height = nrm.x * c.x + nrm.y * c.y + nrm.z * c.z + d;
+      flat_distance_[g] = std::max(flat_distance_[g], height);
     }
     for (size_t g = 0; g < n; ++g) {
-      if (flat_distance_[g] >= 0.f && flat_distance_[g] <= limit) group_flat_[g] = 1;
+      if (flat_distance_[g] <= limit) group_flat_[g] = 1;
     }
   }
 }

@@ -54,9 +54,10 @@ struct ObjectParams {
   /// container_max_axis_offset_rel it joins the object group it shares the most adjacencies
   /// with.
   float support_release_enclosed_max_area_m2{0.04f};
-  /// A group all of whose supervoxels have their centroid within above_support_distance_m of
-  /// one support plane lies flat on it: a piece of the table that the plane labelling gave
-  /// another plane or none (on a real table, one slightly off the fitted plane). It is
+  /// A group none of whose supervoxels has its centroid more than above_support_distance_m
+  /// above one support plane lies flat on it (or below it): a piece of the table that the
+  /// plane labelling gave another plane or none (on a real table, one slightly off the fitted
+  /// plane), the table's front edge seen from above. It is
   /// background like a low group of released supervoxels, and kept (or joined to the vessel
   /// around it) under the same enclosure rule. false = such pieces are objects (the paper).
   bool support_flat_groups{true};

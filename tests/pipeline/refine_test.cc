@@ -380,6 +380,38 @@ TEST(Refiner, AGroupLyingFlatOnTheSupportIsTheSupport) {
   }
 }
 
+// The table's front edge seen from above: two supervoxels of one initial segment, 1 mm and
+// 8 mm below the table's plane (their centroid 4.5 mm below, within below_support_margin_m),
+// on no plane. Nothing of it stands above the table: it is support too.
+struct FrontEdge {
+  HandFrame frame{60, 30};
+  Block upper{10, 20, 50, 25}, lower{10, 25, 50, 30};
+  FrontEdge() {
+    const int a = frame.Add(upper, 1.001, kFacing, PatchType::kNonPlanar, 1, -1);
+    const int b = frame.Add(lower, 1.008, kFacing, PatchType::kNonPlanar, 1, -1);
+    const int t = frame.Add({0, 0, 60, 20}, 1.0, kFacing, PatchType::kPlanar, 0, 0);
+    frame.Connect({{a, b}, {a, t}});
+  }
+};
+
+TEST(Refiner, AGroupStandingNowhereAboveTheSupportIsTheSupport) {
+  ObjectParams p = TestParams();
+  p.min_object_points = 50;
+  ASSERT_EQ(p.below_support_margin_m, 0.005f);
+  for (const bool unorganized : {false, true}) {
+    SCOPED_TRACE(unorganized ? "unorganized" : "organized");
+    FrontEdge edge;
+    HandFrame::Run r = edge.frame.Refine(p, unorganized);
+    EXPECT_EQ(r.objects, 0u);
+    EXPECT_EQ(edge.frame.BlockLabel(r, edge.lower), 0);
+    ObjectParams off = p;
+    off.support_flat_groups = false;
+    r = edge.frame.Refine(off, unorganized);
+    EXPECT_EQ(r.objects, 1u);
+    EXPECT_EQ(edge.frame.BlockLabel(r, edge.lower), 1);
+  }
+}
+
 // An object O (rows 0-9, 5 cm above the table) with the ring of table the support-first step
 // left around it (rows 10-19, support supervoxel T) and, in that ring, a piece P 5 mm above the
 // plane (released, too low to stand alone). Rows 20-29 hold no point: in the organized frame
