@@ -513,16 +513,16 @@ void Refiner::MarkFlatGroups(const supervoxel::Supervoxels& sv,
     const core::Vec3f nrm = planes.planes[p].normal;
     const float d = planes.planes[p].d;
     // Read only at the groups' roots (supervoxels not in the background).
-    flat_distance_.assign(n, -std::numeric_limits<float>::infinity());
+    flat_height_.assign(n, -std::numeric_limits<float>::infinity());
     for (size_t i = 0; i < n; ++i) {
       if (background_[i]) continue;
       const int32_t g = Find(static_cast<int32_t>(i));
       const core::Vec3f& c = sv.centroid[i];
       const float height = nrm.x * c.x + nrm.y * c.y + nrm.z * c.z + d;
-      flat_distance_[g] = std::max(flat_distance_[g], height);
+      flat_height_[g] = std::max(flat_height_[g], height);
     }
     for (size_t g = 0; g < n; ++g) {
-      if (flat_distance_[g] <= limit) group_flat_[g] = 1;
+      if (flat_height_[g] <= limit) group_flat_[g] = 1;
     }
   }
 }
@@ -694,10 +694,10 @@ void Refiner::Compute(const core::CameraIntrinsics& intrinsics, const core::Poin
 
   // Pieces of the support that are not on its plane: a group of released supervoxels alone
   // that does not stand clearly above the plane (a piece of the table slightly off the
-  // fitted plane), and a group lying flat on a support (support_flat_groups: every one of its
-  // supervoxels' centroids within above_support_distance_m of the plane; a piece of the table
-  // the plane labelling gave another plane). Both are background again, unless walled in
-  // (below).
+  // fitted plane), and a group lying flat on a support or below it (support_flat_groups: none
+  // of its supervoxels' centroids more than above_support_distance_m above the plane; a piece
+  // of the table the plane labelling gave another plane, the table's front edge). Both are
+  // background again, unless walled in (below).
   const bool release_low = release && params.support_release_min_height_m > 0.f;
   group_flat_.assign(n, 0);
   if (params.support_flat_groups) MarkFlatGroups(sv, planes);

@@ -111,7 +111,7 @@ class Refiner {
   std::vector<uint8_t> group_unreleased_;
   std::vector<int32_t> group_encloser_;
   std::vector<uint8_t> group_flat_;        // per group root: it lies flat on a support
-  std::vector<float> flat_distance_;       // per group root: its highest centroid over a plane, m
+  std::vector<float> flat_height_;         // per group root: its highest centroid over a plane, m
   std::vector<int32_t> low_root_;          // per supervoxel: its group when that is low, else -1
   std::vector<int32_t> component_;         // piece of the support of each supervoxel
   std::vector<double> component_area_;     // per piece, m^2
