@@ -36,6 +36,8 @@ void PartitionPriorParams::ValidateOrThrow() const {
   check.Require(arrival_min_share > 0.f && arrival_min_share <= 1.f, "arrival_min_share",
                 arrival_min_share, "a share in (0, 1]");
   check.InRange("arrival_moved_min_pixels", arrival_moved_min_pixels, 1, 1 << 24);
+  check.InRange("arrival_rejoin_min_contact", arrival_rejoin_min_contact, 0, 1 << 24,
+                "(0 = never)");
 }
 
 PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
@@ -87,6 +89,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   const uint32_t with_arrivals = history_.Apply(cloud, scene_z, frame_seq, n, out);
   counts_.arrival_splits = history_.num_split();
   counts_.arrival_moves = history_.num_moved();
+  counts_.arrival_joins = history_.num_joined();
   const bool arrivals = history_.changed();
   if (arrivals) n = Compact(with_arrivals + 1, out, num_pixels, out);
   if (!have_prev_) {

@@ -38,9 +38,9 @@ struct PartitionPriorParams {
 
   /// Objects by arrival (docs/method.md, "Objects by arrival"): a segment joining surfaces
   /// that arrived in front of the camera more than this many frames apart (a box put flush
-  /// on a box that was there before) is split along them; 0 = off (the default: it raises
-  /// coverage of piles but flickers more; docs/results.md, "Objects by arrival"). 10 to try.
-  int arrival_gap_frames{0};
+  /// on a box that was there before) is split along them; 0 = off (config/paper.yaml). 10 by
+  /// default (docs/results.md, "Objects by arrival, with the pieces joined back").
+  int arrival_gap_frames{10};
   /// A new depth at a pixel is a surface (and its arrival counted from its first frame) once
   /// measured within the band in this many consecutive frames; until then the split waits.
   int arrival_confirm_frames{5};
@@ -50,6 +50,11 @@ struct PartitionPriorParams {
   /// An object next to at least this many pixels whose surface moved away (it uncovered what
   /// was behind) has moved, and all of it counts as arrived then: a pushed object stays whole.
   int arrival_moved_min_pixels{10};
+  /// A part that the arrival split cut off a segment joins the neighbouring segment of the
+  /// same arrival (not the first frame's) with which it shares at least this many pairs of
+  /// 4-neighbour pixels within the depth band: the piece of an older object that the
+  /// segmentation gave to a newer neighbour goes back to the rest of its object. 0 = never.
+  int arrival_rejoin_min_contact{3};
 
   /// Whether a PartitionPrior with these parameters changes anything (hold or arrivals on).
   bool enabled() const { return hold_frames > 1 || arrival_gap_frames > 0; }
@@ -66,6 +71,7 @@ struct PartitionPriorCounts {
   int passed_splits{0};   ///< splits of still objects published (seen hold_frames in a row)
   int arrival_splits{0};  ///< segments split into parts of different arrival
   int arrival_moves{0};   ///< objects that moved and count as arrived in this frame
+  int arrival_joins{0};   ///< parts cut off by arrival joined to a neighbour of their arrival
 };
 
 /// Hysteresis on the partition of a stream (docs/method.md, "Temporal coherence"): where the

@@ -27,6 +27,9 @@ constexpr uint32_t kMinArrivalPixels = 5;
 // Passes of FillFromNeighbours; pixels still unreached after them keep their segment's label.
 constexpr int kMaxFillPasses = 64;
 constexpr int kMovedRadius = 2;  // pixels around an uncovered pixel that are "next to" it
+// Two pixels of neighbouring segments touch when their depths are within this many depth
+// bands of each other (a steep face seen at a grazing angle steps by more than one).
+constexpr float kRejoinBands = 2.f;
 
 }  // namespace
 
@@ -65,8 +68,12 @@ void FillFromNeighbours(const uint32_t* in, int w, int h, std::vector<uint32_t>*
 }
 
 SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_{params.arrival_gap_frames, params.arrival_confirm_frames, params.min_pixels,
-              params.arrival_moved_min_pixels, params.arrival_min_share},
+    : params_{params.arrival_gap_frames,
+              params.arrival_confirm_frames,
+              params.min_pixels,
+              params.arrival_moved_min_pixels,
+              params.arrival_rejoin_min_contact,
+              params.arrival_min_share},
       band_(band) {}
 
 void SurfaceHistory::Reset() { have_ = false; }
@@ -109,71 +116,85 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   uncovered_birth_.clear();
   uncovered_since_.clear();
   const int confirm = params_.confirm_frames;
-  for (size_t i = 0; i < num_pixels_; ++i) {
+  // The arrays through local pointers: stores through them do not make the compiler reload
+  // the vectors' data pointers for every pixel.
+  float* const ref_z = ref_z_.data();
+  float* const old_z = old_z_.data();
+  float* const cand_z = cand_z_.data();
+  int32_t* const ref_birth = ref_birth_.data();
+  int32_t* const ref_since = ref_since_.data();
+  int32_t* const old_birth = old_birth_.data();
+  int32_t* const cand_since = cand_since_.data();
+  uint8_t* const cand_n = cand_n_.data();
+  uint8_t* const flags = flags_.data();
+  const size_t num_pixels = num_pixels_;
+  const TemporalFilterParams band_params = band_;
+  const int gap_frames = params_.gap_frames;
+  for (size_t i = 0; i < num_pixels; ++i) {
     const float z = scene ? scene_z[i] : cloud.xyz[i].z;
     if (!(z > 0.f)) continue;  // a hole changes nothing
-    uint8_t& f = flags_[i];
-    if (std::isnan(ref_z_[i])) {
+    uint8_t& f = flags[i];
+    if (std::isnan(ref_z[i])) {
       // First measurement: arrived now (in the first frame: there from the start). A pixel
       // that was a hole until something came in range in front of the camera saw it arrive.
-      ref_z_[i] = z;
-      ref_birth_[i] = ref_since_[i] = now;
+      ref_z[i] = z;
+      ref_birth[i] = ref_since[i] = now;
       f = kRefKnown;
       continue;
     }
-    const float band = band_.BandAt(z);
-    if (std::abs(z - ref_z_[i]) <= band) {
-      ref_z_[i] = z;
+    const float band = band_params.BandAt(z);
+    if (std::abs(z - ref_z[i]) <= band) {
+      ref_z[i] = z;
       f = static_cast<uint8_t>(f & ~kOnCand);
-      cand_n_[i] = 0;
+      cand_n[i] = 0;
       continue;
     }
-    if (!std::isnan(old_z_[i]) && std::abs(z - old_z_[i]) <= band) {
+    if (!std::isnan(old_z[i]) && std::abs(z - old_z[i]) <= band) {
       // The previous surface again (an occluder left, a covering object was taken away): it
       // keeps its arrival; the surface it replaces becomes the previous one.
-      std::swap(ref_z_[i], old_z_[i]);
-      std::swap(ref_birth_[i], old_birth_[i]);
-      ref_z_[i] = z;
-      ref_since_[i] = now;
+      std::swap(ref_z[i], old_z[i]);
+      std::swap(ref_birth[i], old_birth[i]);
+      ref_z[i] = z;
+      ref_since[i] = now;
       const uint8_t ref_known = (f & kOldKnown) ? kRefKnown : 0;
       const uint8_t old_known = (f & kRefKnown) ? kOldKnown : 0;
       f = static_cast<uint8_t>(ref_known | old_known | ((f & kOldClass) >> 2) |
                                ((f & kRefClass) << 2));
-      cand_n_[i] = 0;
+      cand_n[i] = 0;
       continue;
     }
-    if ((f & kOnCand) && std::abs(z - cand_z_[i]) <= band) {
-      cand_z_[i] = z;
-      if (cand_n_[i] < 255) ++cand_n_[i];
+    if ((f & kOnCand) && std::abs(z - cand_z[i]) <= band) {
+      cand_z[i] = z;
+      if (cand_n[i] < 255) ++cand_n[i];
     } else {
       // A new candidate: direct when the pixel showed its surface (or a hole) just before.
       const bool direct = (f & kOnCand) == 0;
-      cand_z_[i] = z;
-      cand_since_[i] = now;
-      cand_n_[i] = 1;
+      cand_z[i] = z;
+      cand_since[i] = now;
+      cand_n[i] = 1;
       f = static_cast<uint8_t>((f & ~kDirect) | kOnCand | (direct ? kDirect : 0));
     }
-    if (cand_n_[i] < confirm) continue;
+    if (cand_n[i] < confirm) continue;
     // The candidate is the pixel's surface now. Something put down in front of the surface
     // arrived at the candidate's first frame; a surface behind it was uncovered.
-    const bool closer = z < ref_z_[i];
+    const bool closer = z < ref_z[i];
     if (!closer && (f & kRefKnown)) {
       uncovered_.push_back(static_cast<uint32_t>(i));
-      uncovered_birth_.push_back(ref_birth_[i]);
-      uncovered_since_.push_back(cand_since_[i]);
+      uncovered_birth_.push_back(ref_birth[i]);
+      uncovered_since_.push_back(cand_since[i]);
     }
     uint8_t nf = (closer && (f & kDirect)) ? kRefKnown : 0;
-    if (now - ref_since_[i] >= params_.gap_frames) {  // a lasting surface is remembered
-      old_z_[i] = ref_z_[i];
-      old_birth_[i] = ref_birth_[i];
+    if (now - ref_since[i] >= gap_frames) {  // a lasting surface is remembered
+      old_z[i] = ref_z[i];
+      old_birth[i] = ref_birth[i];
       if (f & kRefKnown) nf |= kOldKnown;
       nf |= static_cast<uint8_t>((f & kRefClass) << 2);
     } else {
       nf |= f & (kOldKnown | kOldClass);
     }
-    ref_z_[i] = z;
-    ref_birth_[i] = ref_since_[i] = cand_since_[i];
-    cand_n_[i] = 0;
+    ref_z[i] = z;
+    ref_birth[i] = ref_since[i] = cand_since[i];
+    cand_n[i] = 0;
     f = nf;
   }
 }
@@ -229,6 +250,7 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
                                int64_t seq, uint32_t n, uint32_t* labels) {
   num_split_ = 0;
   num_moved_ = 0;
+  num_joined_ = 0;
   if (!have_) base_seq_ = seq;
   const int64_t rel = std::clamp<int64_t>(seq - base_seq_, 0, std::numeric_limits<int32_t>::max());
   const int32_t now = static_cast<int32_t>(rel);
@@ -256,6 +278,11 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   uint32_t next = n + 1;
   entries_.resize(n + 1);
   to_.resize(n + 1);
+  lo_.assign(n + 1, -1);
+  hi_.assign(n + 1, -1);
+  part_.assign(n + 1, 0u);
+  origin_.resize(n + 1);
+  for (uint32_t r = 0; r <= n; ++r) origin_[r] = r;
   bool any = false;
   for (uint32_t r = 1; r <= n; ++r) {
     std::vector<Entry>& es = entries_[r];
@@ -278,17 +305,32 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
         std::max<float>(static_cast<float>(params_.min_pixels), params_.min_share * total));
     std::vector<uint32_t>& group_px = group_px_;
     group_px.clear();
+    group_lo_.clear();
+    group_hi_.clear();
     to.assign(es.size(), 0u);
     int32_t last = 0;
     for (size_t k = 0; k < es.size(); ++k) {
       if (es[k].count < significant) continue;
-      if (group_px.empty() || es[k].birth - last > params_.gap_frames) group_px.push_back(0);
+      if (group_px.empty() || es[k].birth - last > params_.gap_frames) {
+        group_px.push_back(0);
+        group_lo_.push_back(es[k].birth);
+      }
       last = es[k].birth;
       to[k] = static_cast<uint32_t>(group_px.size());  // 1-based group
       group_px.back() += es[k].count;
+      if (group_hi_.size() < group_px.size()) group_hi_.resize(group_px.size());
+      group_hi_.back() = es[k].birth;
     }
     int groups = 0;
-    for (const uint32_t c : group_px) groups += c >= need ? 1 : 0;
+    size_t largest = 0;
+    for (size_t g = 0; g < group_px.size(); ++g) {
+      groups += group_px[g] >= need ? 1 : 0;
+      if (group_px[g] > group_px[largest]) largest = g;
+    }
+    if (!group_px.empty()) {  // the segment's own arrival, for parts that may join it
+      lo_[r] = group_lo_[largest];
+      hi_[r] = group_hi_[largest];
+    }
     if (groups < 2) {
       to.clear();
       continue;
@@ -299,8 +341,19 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     bool first = true;
     for (size_t g = 0; g < group_px.size(); ++g) {
       if (group_px[g] < need) continue;
-      label_of[g + 1] = first ? r : next++;
+      const uint32_t l = first ? r : next++;
+      label_of[g + 1] = l;
       first = false;
+      if (l >= lo_.size()) {
+        lo_.resize(l + 1, -1);
+        hi_.resize(l + 1, -1);
+        part_.resize(l + 1, 0u);
+        origin_.resize(l + 1, 0u);
+      }
+      lo_[l] = group_lo_[g];
+      hi_[l] = group_hi_[g];
+      part_[l] = 1;
+      origin_[l] = r;
     }
     for (size_t k = 0; k < es.size(); ++k) to[k] = label_of[to[k]];
     ++num_split_;
@@ -326,8 +379,83 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     if (o == 0) pending_.push_back(static_cast<uint32_t>(i));
   }
   FillFromNeighbours(labels, w, h, &pending_, &pending_next_, &taken_, out_.data());
+  Rejoin(cloud, next - 1);
   std::copy(out_.begin(), out_.end(), labels);
   return next - 1;
+}
+
+void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labels) {
+  if (params_.rejoin_min_contact <= 0) return;
+  const int w = cloud.width, h = cloud.height;
+  // Contacts between a part and a segment it was not cut from: 4-neighbour pixel pairs whose
+  // depths lie within the band of each other.
+  contacts_.clear();
+  const auto touch = [&](size_t i, size_t j) {
+    uint32_t a = out_[i], b = out_[j];
+    if (a == b || a == 0 || b == 0 || a > num_labels || b > num_labels) return;
+    if (!part_[a] && !part_[b]) return;
+    if (origin_[a] == origin_[b]) return;  // cut apart by their arrivals
+    const float za = cloud.xyz[i].z, zb = cloud.xyz[j].z;
+    if (!(za > 0.f) || !(zb > 0.f) || std::abs(za - zb) > kRejoinBands * band_.BandAt(za)) {
+      return;
+    }
+    if (a > b) std::swap(a, b);
+    for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
+      if (it->a == a && it->b == b) {
+        ++it->count;
+        return;
+      }
+    }
+    contacts_.push_back(Contact{a, b, 1});
+  };
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
+      if (out_[i] == 0) continue;
+      // Across one unlabelled pixel too (a hole or an edge pixel between two segments).
+      const size_t row = static_cast<size_t>(w);
+      if (u + 1 < w) touch(i, i + 1);
+      if (u + 2 < w && out_[i + 1] == 0) touch(i, i + 2);
+      if (v + 1 < h) touch(i, i + row);
+      if (v + 2 < h && out_[i + row] == 0) touch(i, i + 2 * row);
+    }
+  }
+  if (contacts_.empty()) return;
+  // Each part joins the neighbour of its arrival it touches most. The first frame's surfaces
+  // all arrived together, so their common arrival says nothing.
+  parent_.resize(num_labels + 1);
+  for (uint32_t l = 0; l <= num_labels; ++l) parent_[l] = l;
+  const auto find = [&](uint32_t x) {
+    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
+    return x;
+  };
+  const auto min_contact = static_cast<uint32_t>(params_.rejoin_min_contact);
+  const auto same_arrival = [&](uint32_t a, uint32_t b) {
+    return lo_[a] > 0 && lo_[b] > 0 && lo_[b] - hi_[a] <= params_.gap_frames &&
+           lo_[a] - hi_[b] <= params_.gap_frames;
+  };
+  for (uint32_t p = 1; p <= num_labels; ++p) {
+    if (!part_[p]) continue;
+    uint32_t best = 0, best_count = 0;
+    for (const Contact& c : contacts_) {
+      if (c.a != p && c.b != p) continue;
+      const uint32_t t = c.a == p ? c.b : c.a;
+      if (c.count < min_contact || !same_arrival(p, t)) continue;
+      if (c.count > best_count || (c.count == best_count && t < best)) {
+        best = t;
+        best_count = c.count;
+      }
+    }
+    if (best == 0) continue;
+    const uint32_t rp = find(p), rt = find(best);
+    if (rp == rt) continue;
+    parent_[std::max(rp, rt)] = std::min(rp, rt);
+    ++num_joined_;
+  }
+  if (num_joined_ == 0) return;
+  for (uint32_t& l : out_) {
+    if (l != 0 && l <= num_labels) l = find(l);
+  }
 }
 
 }  // namespace clutterseg::pipeline

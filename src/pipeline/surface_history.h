@@ -56,6 +56,8 @@ class SurfaceHistory {
   /// Segments split by the last Apply; segments that took a new arrival for having moved.
   int num_split() const { return num_split_; }
   int num_moved() const { return num_moved_; }
+  /// Parts cut off by the last Apply that joined a neighbouring segment of their arrival.
+  int num_joined() const { return num_joined_; }
   /// Whether the last Apply changed the labels.
   bool changed() const { return changed_; }
   size_t memory_bytes() const;
@@ -76,9 +78,12 @@ class SurfaceHistory {
   int32_t Arrival(size_t i) const;
   bool changed_{false};
   void ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h);
+  // Joins the parts cut off (labels in out_ up to `num_labels`) to the neighbouring segment of
+  // their arrival (arrival_rejoin_min_contact).
+  void Rejoin(const core::PointCloudView& cloud, uint32_t num_labels);
 
   struct Params {  // copied from PartitionPriorParams
-    int gap_frames, confirm_frames, min_pixels, moved_min_pixels;
+    int gap_frames, confirm_frames, min_pixels, moved_min_pixels, rejoin_min_contact;
     float min_share;
   };
   Params params_;
@@ -86,7 +91,7 @@ class SurfaceHistory {
   bool have_{false};
   int64_t base_seq_{0};
   size_t num_pixels_{0};
-  int num_split_{0}, num_moved_{0};
+  int num_split_{0}, num_moved_{0}, num_joined_{0};
 
   // Per pixel. z in metres (NaN = none); births and sinces relative to base_seq_.
   std::vector<float> ref_z_, old_z_, cand_z_;
@@ -102,6 +107,16 @@ class SurfaceHistory {
   std::vector<uint32_t> group_px_, label_of_;
   std::vector<std::vector<uint32_t>> to_;  // per segment, per entry: output label (0 = fill)
   std::vector<uint32_t> out_, pending_, pending_next_, taken_;
+  // Per output label: the arrival range of its (largest) group, -1 = none; the segment it was
+  // cut from (itself when not split); whether it is a part of a split segment.
+  std::vector<int32_t> lo_, hi_;
+  std::vector<uint32_t> origin_, parent_;
+  std::vector<uint8_t> part_;
+  struct Contact {
+    uint32_t a, b, count;
+  };
+  std::vector<Contact> contacts_;
+  std::vector<int32_t> group_lo_, group_hi_;
 };
 
 /// Gives each pixel i of `pending` (out[i] == 0) the output label of a 4-neighbour with the

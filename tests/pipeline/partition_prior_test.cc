@@ -74,7 +74,7 @@ PartitionPriorParams Hold(int frames) {
   return p;
 }
 
-// The defaults with the objects by arrival on (off by default), gap 10 frames.
+// The defaults: the objects by arrival on, gap 10 frames.
 PartitionPriorParams Arrival() {
   PartitionPriorParams p;
   p.arrival_gap_frames = 10;
@@ -380,6 +380,47 @@ TEST(PartitionPrior, TheSurfacesAreFollowedInTheSceneDepthNotTheSegmentedCloud) 
   EXPECT_TRUE(cut);
 }
 
+// Box A is put down at frame 10, box B flush beside it at frame 40. From then on the
+// segmentation gives A's four right columns to B. Split by arrival, those columns are a piece
+// of A's arrival, and it joins the rest of A instead of standing as an object of its own.
+TEST(PartitionPrior, APieceOfAnOlderObjectGivenToANewerNeighbourGoesBackToIt) {
+  PartitionPriorParams alone = Arrival();
+  alone.arrival_rejoin_min_contact = 0;
+  PartitionPrior prior(Arrival(), TemporalFilterParams{});
+  PartitionPrior without(alone, TemporalFilterParams{});
+  const auto depth = [](int64_t seq) {
+    return SceneOf([seq](int u, int v) {
+      if (v < 10 || v >= 40) return 1.0f;
+      if (u >= 10 && u < 30 && seq >= 10) return 0.9f;
+      if (u >= 30 && u < 50 && seq >= 40) return 0.9f;
+      return 1.0f;
+    });
+  };
+  const auto segmented = [](int64_t seq) {
+    return Segmentation([seq](int u, int v) {
+      if (v < 10 || v >= 40 || seq < 10 || u < 10) return 0u;
+      if (seq < 40) return u < 30 ? 1u : 0u;
+      return u < 26 ? 1u : u < 50 ? 2u : 0u;
+    });
+  };
+  bool joined = false;
+  for (int64_t seq = 1; seq < 80; ++seq) {
+    const core::PointCloud cloud = depth(seq);
+    SegmentationResult r = segmented(seq), w = segmented(seq);
+    prior.Apply(cloud, seq, &r);
+    without.Apply(cloud, seq, &w);
+    joined = joined || prior.counts().arrival_joins > 0;
+    if (seq < 60) continue;  // B confirmed and its partition no longer held
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_EQ(At(r, 11, 20), At(r, 29, 20)) << seq;
+    EXPECT_NE(At(r, 29, 20), At(r, 30, 20)) << seq;
+    EXPECT_EQ(At(r, 30, 20), At(r, 49, 20)) << seq;
+    EXPECT_EQ(w.objects.size(), 3u) << seq;  // without: A's columns stand alone
+    EXPECT_NE(At(w, 25, 20), At(w, 26, 20)) << seq;
+  }
+  EXPECT_TRUE(joined);
+}
+
 TEST(PartitionPrior, RefusesBadParameters) {
   const std::function<void(PartitionPriorParams*)> bad[] = {
       [](PartitionPriorParams* p) { p->hold_frames = 0; },
@@ -389,6 +430,7 @@ TEST(PartitionPrior, RefusesBadParameters) {
       [](PartitionPriorParams* p) { p->arrival_confirm_frames = 0; },
       [](PartitionPriorParams* p) { p->arrival_min_share = 0.f; },
       [](PartitionPriorParams* p) { p->arrival_moved_min_pixels = 0; },
+      [](PartitionPriorParams* p) { p->arrival_rejoin_min_contact = -1; },
   };
   for (size_t k = 0; k < std::size(bad); ++k) {
     PartitionPriorParams p;

@@ -155,14 +155,16 @@ TEST_F(SegmenterTest, SupportFirstTakesOnlyTheTableAndKeepsTheObjects) {
     EXPECT_EQ(taken, with.num_support_first_points);
     EXPECT_EQ(taken_objects, 0u) << "seed " << seed;
 
-    // The scene's depth is kept only for a stream's objects by arrival, with the points taken.
-    EXPECT_TRUE(on.scene_depth().empty());
-    SegmenterParams arrival_params = params_;
-    arrival_params.partition.arrival_gap_frames = 10;
-    Segmenter arrival(arrival_params);
+    // The scene's depth is kept only for a stream's objects by arrival (on by default), with
+    // the points taken.
+    SegmenterParams no_arrival = params_;
+    no_arrival.partition.arrival_gap_frames = 0;
+    Segmenter plain(no_arrival);
     SegmentationResult same;
-    arrival.Process(r.cloud, r.intrinsics, &same);
+    plain.Process(r.cloud, r.intrinsics, &same);
     EXPECT_EQ(same.labels.data, with.labels.data);
+    EXPECT_TRUE(plain.scene_depth().empty());
+    const Segmenter& arrival = on;
     ASSERT_EQ(arrival.scene_depth().size(), r.cloud.size());
     size_t kept = 0;
     for (size_t i = 0; i < r.cloud.size(); ++i) {
