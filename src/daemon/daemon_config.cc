@@ -126,6 +126,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.reference_decay", &C::tracker, &T::reference_decay),
           MakeKey("tracker.part_min_fraction", &C::tracker, &T::part_min_fraction),
           MakeKey("tracker.split_own_margin_m", &C::tracker, &T::split_own_margin_m),
+          MakeKey("tracker.joined_view_frames", &C::tracker, &T::joined_view_frames),
           MakeKey("tracker.continuation_before_reacquire", &C::tracker,
                   &T::continuation_before_reacquire),
           MakeKey("tracker.mask_weight", &C::tracker, &T::mask_weight),

@@ -88,6 +88,7 @@ void TrackerParams::ValidateOrThrow() const {
   check.InRange("part_min_fraction", part_min_fraction, 0.5f, 1.f);
   check.Require(split_own_margin_m >= 0.f && split_own_margin_m <= 1.f, "split_own_margin_m",
                 split_own_margin_m, "a distance in [0, 1] m (0 = off)");
+  check.InRange("joined_view_frames", joined_view_frames, 0, 100000);
   check.InRange("mask_weight", mask_weight, 0.f, 1.f);
   check.Require(lost_score_factor > 0.f && lost_score_factor <= 1.f, "lost_score_factor",
                 lost_score_factor, "a factor in (0, 1]");
@@ -115,6 +116,8 @@ struct Tracker::Impl {
     std::vector<uint32_t> remembered_pixels;
     std::vector<float> remembered_z;
     core::Vec3f own_centroid;  // of its last view that held no other track
+    uint32_t own_points{0};    // of that view
+    int64_t joined_seq{-1};    // the last frame a new surface joined its view (-1: never)
   };
 
   Impl(const TrackerParams& p, const TemporalFilterParams& b) : params(p), band(b) {
@@ -575,8 +578,18 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       // A confirmed track's view made mostly of pixels that were background in the previous
       // frame (a new surface joined to it: an object put down against it) is neither its own
       // view nor its reference view.
-      const bool own_view = !overlap || t.prev_label == 0 || !t.confirmed ||
-                            counts[o.id] < params.part_min_fraction * cur_size[o.id];
+      const bool joined = overlap && t.prev_label != 0 && t.confirmed &&
+                          counts[o.id] >= params.part_min_fraction * cur_size[o.id];
+      if (joined) t.joined_seq = seq;
+      // ... nor, for joined_view_frames frames, a view still mostly made of what joined it
+      // and reaching out of the track's remembered box (an object uncovered by an occluder
+      // that leaves grows back within it).
+      const bool still_joined =
+          t.joined_seq >= 0 && seq - t.joined_seq <= params.joined_view_frames &&
+          static_cast<float>(t.own_points) <=
+              (1.f - params.part_min_fraction) * static_cast<float>(o.num_points) &&
+          InsideShare(Box{o.aabb_min, o.aabb_max}, t.ref_box) < params.part_min_fraction;
+      const bool own_view = !joined && !still_joined;
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
       ++t.seen;
@@ -588,6 +601,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (params.split_own_margin_m <= 0.f ||
           (own_view && !merged_det[static_cast<size_t>(d)] && !HoldsRememberedTrack(o, r))) {
         t.own_centroid = o.centroid;
+        t.own_points = o.num_points;
       }
       t.ref_points *= params.reference_decay;
       if (own_view && static_cast<float>(o.num_points) >= t.ref_points) {
@@ -630,6 +644,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     t.ref_box = t.box;
     if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
     t.own_centroid = o.centroid;
+    t.own_points = o.num_points;
     ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
     ot.track_id = t.id;
     ot.age_frames = 0;

@@ -66,6 +66,16 @@ struct TrackerParams {
   /// no other track and held no remembered one (so after a merge comes apart each object
   /// gets its own id back). 0 = off: the part with the most points keeps it.
   float split_own_margin_m{0.01f};
+  /// For this many frames after a new surface joined a confirmed track's view (at least
+  /// part_min_fraction of the view was background in the previous frame: an object put down
+  /// against it and segmented with it), a view of which the track's own view is at most
+  /// 1 - part_min_fraction, and whose box lies less than part_min_fraction inside the track's
+  /// remembered box (an object uncovered by a leaving occluder grows back within it), is still
+  /// not the track's own: its own centroid and reference view
+  /// stay those of the object alone, so that when the objects by arrival cut the newcomer off
+  /// (segmenter.partition, up to arrival_confirm_frames + hold_frames - 2 frames later) the
+  /// track's id goes to its own object. 0 = only the frame it joined.
+  int joined_view_frames{10};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
   /// rest goes in equal parts to centroid proximity and 3-D box IoU (0..1).

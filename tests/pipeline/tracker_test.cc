@@ -472,6 +472,40 @@ TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId)
   }
 }
 
+// The same, with the object put down segmented with kA for seven frames, as before the objects
+// by arrival cut it off (their confirmation and the partition hysteresis): kA keeps its id.
+// With joined_view_frames 0 the merged view became the track's own from its second frame, and
+// the split handed kA's id to the newcomer.
+TEST(TrackerJoinedView, AnObjectJoinedToATrackForSeveralFramesLeavesItItsIdWhenCutOff) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  const Surface joined{Rect{10, 30, 40, 55}, 1.0f, 1}, apart{Rect{10, 30, 40, 55}, 1.0f, 3};
+  for (const int frames : {10, 0}) {
+    TrackerParams p;
+    p.joined_view_frames = frames;
+    Tracker dut(p);
+    TrackingResult out;
+    core::PointCloud cloud;
+    int64_t seq = 0;
+    const auto step = [&](const std::vector<Surface>& surfaces) {
+      const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
+      dut.Update(frame, seq++, &out, cloud);
+      return Ids(out);
+    };
+    for (int f = 0; f < 4; ++f) step({a, b});
+    for (int f = 0; f < 7; ++f) {
+      EXPECT_EQ(step({a, b, joined}), (std::vector<int64_t>{1, 2})) << frames << " " << f;
+    }
+    const std::vector<int64_t> ids = step({a, b, apart});
+    ASSERT_EQ(ids.size(), 3u);
+    if (frames > 0) {
+      EXPECT_EQ(ids, (std::vector<int64_t>{1, 2, 3}));
+    } else {
+      EXPECT_NE(ids[0], 1) << "without it the newcomer takes kA's id";
+      EXPECT_EQ(ids[2], 1);
+    }
+  }
+}
+
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
   Tracker flat(params_);
   TrackingResult t;
@@ -588,6 +622,9 @@ TEST(TrackerParams, ValidationNamesTheKey) {
   p = {};
   p.split_own_margin_m = -0.01f;
   expect_key(p, "split_own_margin_m");
+  p = {};
+  p.joined_view_frames = -1;
+  expect_key(p, "joined_view_frames");
   p = {};
   p.part_min_fraction = 0.4f;
   expect_key(p, "part_min_fraction");
