@@ -387,9 +387,10 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
 void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labels) {
   if (params_.rejoin_min_contact <= 0) return;
   const int w = cloud.width, h = cloud.height;
-  // Contacts between a part and a segment it was not cut from: 4-neighbour pixel pairs whose
-  // depths lie within the band of each other.
+  // Contacts between a part and a segment it was not cut from: pairs of 4-neighbour pixels,
+  // or of pixels one unlabelled pixel apart, whose depths lie within kRejoinBands bands.
   contacts_.clear();
+  const size_t row = static_cast<size_t>(w);
   const auto touch = [&](size_t i, size_t j) {
     uint32_t a = out_[i], b = out_[j];
     if (a == b || a == 0 || b == 0 || a > num_labels || b > num_labels) return;
@@ -413,7 +414,6 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
       const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
       if (out_[i] == 0) continue;
       // Across one unlabelled pixel too (a hole or an edge pixel between two segments).
-      const size_t row = static_cast<size_t>(w);
       if (u + 1 < w) touch(i, i + 1);
       if (u + 2 < w && out_[i + 1] == 0) touch(i, i + 2);
       if (v + 1 < h) touch(i, i + row);
