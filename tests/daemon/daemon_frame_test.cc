@@ -375,9 +375,13 @@ TEST_F(DaemonFrame, AReloadMovesTheObjectsToTheNewPoseAndABadFileKeepsTheOld) {
   };
   write_config("");
   const std::string log = (dir_ / "reload.lcmlog").string();
+  // Each pass of the loop is compared with an earlier one. The objects by arrival keep a
+  // per-pixel history across the passes, and at the realtime pace a loaded machine drops
+  // frames, so their splits need not repeat from pass to pass; this test is about the pose.
   testutil::Child child =
       testutil::Spawn({CLUTTERSEG_DAEMON_EXE, "--config", config, "--source", oni_, "--speed",
-                       "realtime", "--loop", "--lcm-url", "file://" + log + "?mode=w"});
+                       "realtime", "--loop", "--set", "segmenter.partition.arrival_gap_frames=0",
+                       "--lcm-url", "file://" + log + "?mode=w"});
   ASSERT_GT(child.pid, 0);
   std::string err;
   for (int i = 0; i < 1000; ++i) {
