@@ -116,85 +116,71 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   uncovered_birth_.clear();
   uncovered_since_.clear();
   const int confirm = params_.confirm_frames;
-  // The arrays through local pointers: stores through them do not make the compiler reload
-  // the vectors' data pointers for every pixel.
-  float* const ref_z = ref_z_.data();
-  float* const old_z = old_z_.data();
-  float* const cand_z = cand_z_.data();
-  int32_t* const ref_birth = ref_birth_.data();
-  int32_t* const ref_since = ref_since_.data();
-  int32_t* const old_birth = old_birth_.data();
-  int32_t* const cand_since = cand_since_.data();
-  uint8_t* const cand_n = cand_n_.data();
-  uint8_t* const flags = flags_.data();
-  const size_t num_pixels = num_pixels_;
-  const TemporalFilterParams band_params = band_;
-  const int gap_frames = params_.gap_frames;
-  for (size_t i = 0; i < num_pixels; ++i) {
+  for (size_t i = 0; i < num_pixels_; ++i) {
     const float z = scene ? scene_z[i] : cloud.xyz[i].z;
     if (!(z > 0.f)) continue;  // a hole changes nothing
-    uint8_t& f = flags[i];
-    if (std::isnan(ref_z[i])) {
+    uint8_t& f = flags_[i];
+    if (std::isnan(ref_z_[i])) {
       // First measurement: arrived now (in the first frame: there from the start). A pixel
       // that was a hole until something came in range in front of the camera saw it arrive.
-      ref_z[i] = z;
-      ref_birth[i] = ref_since[i] = now;
+      ref_z_[i] = z;
+      ref_birth_[i] = ref_since_[i] = now;
       f = kRefKnown;
       continue;
     }
-    const float band = band_params.BandAt(z);
-    if (std::abs(z - ref_z[i]) <= band) {
-      ref_z[i] = z;
+    const float band = band_.BandAt(z);
+    if (std::abs(z - ref_z_[i]) <= band) {
+      ref_z_[i] = z;
       f = static_cast<uint8_t>(f & ~kOnCand);
-      cand_n[i] = 0;
+      cand_n_[i] = 0;
       continue;
     }
-    if (!std::isnan(old_z[i]) && std::abs(z - old_z[i]) <= band) {
+    if (!std::isnan(old_z_[i]) && std::abs(z - old_z_[i]) <= band) {
       // The previous surface again (an occluder left, a covering object was taken away): it
       // keeps its arrival; the surface it replaces becomes the previous one.
-      std::swap(ref_z[i], old_z[i]);
-      std::swap(ref_birth[i], old_birth[i]);
-      ref_z[i] = z;
-      ref_since[i] = now;
+      std::swap(ref_z_[i], old_z_[i]);
+      std::swap(ref_birth_[i], old_birth_[i]);
+      ref_z_[i] = z;
+      ref_since_[i] = now;
       const uint8_t ref_known = (f & kOldKnown) ? kRefKnown : 0;
       const uint8_t old_known = (f & kRefKnown) ? kOldKnown : 0;
       f = static_cast<uint8_t>(ref_known | old_known | ((f & kOldClass) >> 2) |
                                ((f & kRefClass) << 2));
-      cand_n[i] = 0;
+      cand_n_[i] = 0;
       continue;
     }
-    if ((f & kOnCand) && std::abs(z - cand_z[i]) <= band) {
-      cand_z[i] = z;
-      if (cand_n[i] < 255) ++cand_n[i];
+    if ((f & kOnCand) && std::abs(z - cand_z_[i]) <= band) {
+      cand_z_[i] = z;
+      if (cand_n_[i] < 255) ++cand_n_[i];
     } else {
       // A new candidate: direct when the pixel showed its surface (or a hole) just before.
       const bool direct = (f & kOnCand) == 0;
-      cand_z[i] = z;
-      cand_since[i] = now;
-      cand_n[i] = 1;
+      cand_z_[i] = z;
+      cand_since_[i] = now;
+      cand_n_[i] = 1;
       f = static_cast<uint8_t>((f & ~kDirect) | kOnCand | (direct ? kDirect : 0));
     }
-    if (cand_n[i] < confirm) continue;
+    if (cand_n_[i] < confirm) continue;
     // The candidate is the pixel's surface now. Something put down in front of the surface
     // arrived at the candidate's first frame; a surface behind it was uncovered.
-    const bool closer = z < ref_z[i];
+    const bool closer = z < ref_z_[i];
     if (!closer && (f & kRefKnown)) {
       uncovered_.push_back(static_cast<uint32_t>(i));
-      uncovered_birth_.push_back(ref_birth[i]);
-      uncovered_since_.push_back(cand_since[i]);
+      uncovered_birth_.push_back(ref_birth_[i]);
+      uncovered_since_.push_back(cand_since_[i]);
     }
     uint8_t nf = (closer && (f & kDirect)) ? kRefKnown : 0;
-    if (now - ref_since[i] >= gap_frames) {  // a lasting surface is remembered
-      old_z[i] = ref_z[i];
-      old_birth[i] = ref_birth[i];
+    if (now - ref_since_[i] >= params_.gap_frames) {  // a lasting surface is remembered
+      old_z_[i] = ref_z_[i];
+      old_birth_[i] = ref_birth_[i];
       if (f & kRefKnown) nf |= kOldKnown;
       nf |= static_cast<uint8_t>((f & kRefClass) << 2);
     } else {
       nf |= f & (kOldKnown | kOldClass);
     }
-    ref_z[i] = z;
-    ref_birth[i] = ref_since[i] = cand_since[i];
-    cand_n[i] = 0;
+    ref_z_[i] = z;
+    ref_birth_[i] = ref_since_[i] = cand_since_[i];
+    cand_n_[i] = 0;
     f = nf;
   }
 }
@@ -314,11 +300,11 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
       if (group_px.empty() || es[k].birth - last > params_.gap_frames) {
         group_px.push_back(0);
         group_lo_.push_back(es[k].birth);
+        group_hi_.push_back(es[k].birth);
       }
       last = es[k].birth;
       to[k] = static_cast<uint32_t>(group_px.size());  // 1-based group
       group_px.back() += es[k].count;
-      if (group_hi_.size() < group_px.size()) group_hi_.resize(group_px.size());
       group_hi_.back() = es[k].birth;
     }
     int groups = 0;

@@ -354,6 +354,20 @@ struct FlatPiece {
   }
 };
 
+// `piece` of `frame` is support at `p`, and an object of its own with support_flat_groups off
+// (the paper's pipeline).
+void ExpectSupportOnlyWithFlatGroups(HandFrame& frame, const Block& piece, const ObjectParams& p,
+                                     bool unorganized) {
+  HandFrame::Run r = frame.Refine(p, unorganized);
+  EXPECT_EQ(r.objects, 0u);
+  EXPECT_EQ(frame.BlockLabel(r, piece), 0);
+  ObjectParams off = p;
+  off.support_flat_groups = false;
+  r = frame.Refine(off, unorganized);
+  EXPECT_EQ(r.objects, 1u);
+  EXPECT_EQ(frame.BlockLabel(r, piece), 1);
+}
+
 TEST(Refiner, AGroupLyingFlatOnTheSupportIsTheSupport) {
   ObjectParams p = TestParams();
   p.min_object_points = 50;
@@ -364,18 +378,10 @@ TEST(Refiner, AGroupLyingFlatOnTheSupportIsTheSupport) {
       SCOPED_TRACE(std::string(unorganized ? "unorganized" : "organized") +
                    (own_plane ? ", own plane" : ", no plane"));
       FlatPiece flat(0.002, own_plane), high(0.012, own_plane);
-      HandFrame::Run r = flat.frame.Refine(p, unorganized);
-      EXPECT_EQ(r.objects, 0u);
-      EXPECT_EQ(flat.frame.BlockLabel(r, flat.piece), 0);
-      r = high.frame.Refine(p, unorganized);
+      ExpectSupportOnlyWithFlatGroups(flat.frame, flat.piece, p, unorganized);
+      const HandFrame::Run r = high.frame.Refine(p, unorganized);
       EXPECT_EQ(r.objects, 1u);
       EXPECT_EQ(high.frame.BlockLabel(r, high.piece), 1);
-      // Off (the paper): the flat piece is an object.
-      ObjectParams off = p;
-      off.support_flat_groups = false;
-      r = flat.frame.Refine(off, unorganized);
-      EXPECT_EQ(r.objects, 1u);
-      EXPECT_EQ(flat.frame.BlockLabel(r, flat.piece), 1);
     }
   }
 }
@@ -401,14 +407,7 @@ TEST(Refiner, AGroupStandingNowhereAboveTheSupportIsTheSupport) {
   for (const bool unorganized : {false, true}) {
     SCOPED_TRACE(unorganized ? "unorganized" : "organized");
     FrontEdge edge;
-    HandFrame::Run r = edge.frame.Refine(p, unorganized);
-    EXPECT_EQ(r.objects, 0u);
-    EXPECT_EQ(edge.frame.BlockLabel(r, edge.lower), 0);
-    ObjectParams off = p;
-    off.support_flat_groups = false;
-    r = edge.frame.Refine(off, unorganized);
-    EXPECT_EQ(r.objects, 1u);
-    EXPECT_EQ(edge.frame.BlockLabel(r, edge.lower), 1);
+    ExpectSupportOnlyWithFlatGroups(edge.frame, edge.lower, p, unorganized);
   }
 }
 
