@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
 
 #include "clutterseg/pipeline/partition_prior.h"
@@ -22,6 +23,11 @@ constexpr uint8_t kOldBackground = 128;
 constexpr uint8_t kRefClass = kRefSeen | kRefBackground;
 constexpr uint8_t kOldClass = kOldSeen | kOldBackground;
 
+// Whether a pixel of these flags has an arrival (SurfaceHistory::Arrival).
+constexpr bool ArrivalKnown(uint8_t f) {
+  return (f & (kRefKnown | kOnCand | kRefBackground)) == kRefKnown;
+}
+
 // Arrivals of fewer pixels than this (or than 0.5 % of a segment's) are scattered noise.
 constexpr uint32_t kMinArrivalPixels = 5;
 // Passes of FillFromNeighbours; pixels still unreached after them keep their segment's label.
@@ -30,6 +36,65 @@ constexpr int kMovedRadius = 2;  // pixels around an uncovered pixel that are "n
 // Two pixels of neighbouring segments touch when their depths are within this many depth
 // bands of each other (a steep face seen at a grazing angle steps by more than one).
 constexpr float kRejoinBands = 2.f;
+
+// The common steps of SurfaceHistory::Update, for every pixel at once: a pixel within the band
+// of its surface (settled) and, with kCandidates, a candidate begun or continued but not
+// confirmed (a new depth in front of or behind the surface). Each applies the same rule as
+// Update; all other pixels with a valid depth are marked in `todo` and left unchanged, so the
+// two variants give the same state after Update. Returns the number of valid pixels not
+// settled. Written without branches (bitwise operators
+// on 0/1 values, selects) and with restrict pointers, so the compiler vectorises it; the
+// variant without candidates moves half the bytes per pixel.
+template <bool kCandidates>
+uint32_t StepWithoutBranches(size_t num, const float* __restrict zs, float min_band, float band_1m,
+                             int32_t now, int32_t confirm, const float* __restrict old_z,
+                             float* __restrict ref_z, float* __restrict cand_z,
+                             int32_t* __restrict cand_since, uint8_t* __restrict cand_n,
+                             uint8_t* __restrict flags, uint8_t* __restrict todo) {
+  uint32_t changed = 0;
+  for (size_t i = 0; i < num; ++i) {
+    const float z = zs[i], r = ref_z[i];
+    const int32_t f = flags[i], n = cand_n[i];
+    const float band = std::max(min_band, band_1m * z * z);
+    const int32_t valid = z > 0.f;
+    const int32_t settled = valid & (std::abs(z - r) <= band);  // false for a NaN r
+    ref_z[i] = settled ? z : r;
+    changed += static_cast<uint32_t>(valid & (settled ^ 1));
+    if constexpr (kCandidates) {
+      const float c = cand_z[i];
+      const int32_t first = r != r;                         // no surface yet
+      const int32_t back = std::abs(z - old_z[i]) <= band;  // false for a NaN old_z
+      const int32_t on_cand = (f & kOnCand) >> 2;
+      const int32_t cont = on_cand & (std::abs(z - c) <= band);
+      const int32_t n_next = cont * (n + (n < 255)) + (1 - cont);
+      const int32_t step = valid & (settled ^ 1) & (first ^ 1) & (back ^ 1) & (n_next < confirm);
+      const int32_t fresh = step & (cont ^ 1);  // a new candidate, direct after the surface
+      const int32_t fresh_f = (f & ~kDirect) | kOnCand | ((on_cand ^ 1) * kDirect);
+      cand_z[i] = step ? z : c;
+      cand_since[i] = fresh ? now : cand_since[i];
+      cand_n[i] = static_cast<uint8_t>((step * n_next + (1 - step) * n) * (1 - settled));
+      flags[i] = static_cast<uint8_t>((fresh * fresh_f + (1 - fresh) * f) & ~(settled * kOnCand));
+      todo[i] = static_cast<uint8_t>(valid & (settled ^ 1) & (step ^ 1));
+    } else {
+      cand_n[i] = static_cast<uint8_t>(n * (1 - settled));
+      flags[i] = static_cast<uint8_t>(f & ~(settled * kOnCand));
+      todo[i] = static_cast<uint8_t>(valid & (settled ^ 1));
+    }
+  }
+  return changed;
+}
+
+// Marks the surfaces labelled for the first time (not on a candidate, a depth known): seen in
+// a segment (a label 1..n) or as the support (any other label). Without branches, vectorised.
+void MarkFirstLabelled(size_t num, const uint32_t* __restrict labels, uint32_t n,
+                       const float* __restrict ref_z, uint8_t* __restrict flags) {
+  for (size_t i = 0; i < num; ++i) {
+    const uint32_t f = flags[i], r = labels[i];
+    const uint32_t first = ((f & (kRefSeen | kOnCand)) == 0) & (ref_z[i] == ref_z[i]);
+    const uint32_t background = (r == 0) | (r > n);
+    flags[i] = static_cast<uint8_t>(f | first * (kRefSeen | background * kRefBackground));
+  }
+}
 
 }  // namespace
 
@@ -84,8 +149,7 @@ int32_t SurfaceHistory::Arrival(size_t i) const {
   // coverage and switched more ids on the tuning recordings.)
   // Nor does a surface first seen as the background: the support around an object, where the
   // object is within the depth band of the table behind it (the flank of a can lying down).
-  const uint8_t f = flags_[i];
-  return (f & (kRefKnown | kOnCand | kRefBackground)) == kRefKnown ? ref_birth_[i] : -1;
+  return ArrivalKnown(flags_[i]) ? ref_birth_[i] : -1;
 }
 
 size_t SurfaceHistory::memory_bytes() const {
@@ -93,7 +157,7 @@ size_t SurfaceHistory::memory_bytes() const {
          (ref_birth_.capacity() + ref_since_.capacity() + old_birth_.capacity() +
           cand_since_.capacity()) *
              sizeof(int32_t) +
-         cand_n_.capacity() + flags_.capacity();
+         cand_n_.capacity() + flags_.capacity() + z_.capacity() * sizeof(float) + todo_.capacity();
 }
 
 void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const float> scene_z,
@@ -115,10 +179,37 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   uncovered_.clear();
   uncovered_birth_.clear();
   uncovered_since_.clear();
+  // Most pixels show the surface they showed before, or a candidate that is not confirmed
+  // this frame: a first pass (StepWithoutBranches) settles them, and leaves the others (a
+  // first measurement, the previous surface again, a candidate confirmed) to the rules below.
+  const float* zs = scene_z.data();
+  if (!scene) {
+    z_.resize(num_pixels_);
+    for (size_t i = 0; i < num_pixels_; ++i) z_[i] = cloud.xyz[i].z;
+    zs = z_.data();
+  }
+  todo_.resize(num_pixels_);
+  // The candidates' step moves twice the bytes per pixel; it pays where most pixels changed in
+  // the previous frame (a new view, a camera carried around).
+  const bool changing = 4 * static_cast<size_t>(last_changed_) > num_pixels_;
+  last_changed_ =
+      (changing ? StepWithoutBranches<true>
+                : StepWithoutBranches<false>)(num_pixels_, zs, band_.min_band_m, band_.band_at_1m_m,
+                                              now, params_.confirm_frames, old_z_.data(),
+                                              ref_z_.data(), cand_z_.data(), cand_since_.data(),
+                                              cand_n_.data(), flags_.data(), todo_.data());
   const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
-    const float z = scene ? scene_z[i] : cloud.xyz[i].z;
-    if (!(z > 0.f)) continue;  // a hole changes nothing
+    if (i % 8 == 0 && i + 8 <= num_pixels_) {  // skip eight settled pixels at once
+      uint64_t word;
+      std::memcpy(&word, todo_.data() + i, sizeof(word));
+      if (word == 0) {
+        i += 7;
+        continue;
+      }
+    }
+    if (!todo_[i]) continue;
+    const float z = zs[i];
     uint8_t& f = flags_[i];
     if (std::isnan(ref_z_[i])) {
       // First measurement: arrived now (in the first frame: there from the start). A pixel
@@ -129,12 +220,6 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
       continue;
     }
     const float band = band_.BandAt(z);
-    if (std::abs(z - ref_z_[i]) <= band) {
-      ref_z_[i] = z;
-      f = static_cast<uint8_t>(f & ~kOnCand);
-      cand_n_[i] = 0;
-      continue;
-    }
     if (!std::isnan(old_z_[i]) && std::abs(z - old_z_[i]) <= band) {
       // The previous surface again (an occluder left, a covering object was taken away): it
       // keeps its arrival; the surface it replaces becomes the previous one.
@@ -247,19 +332,25 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   const int w = cloud.width, h = cloud.height;
   ApplyMoves(labels, n, w, h);
 
-  // Arrivals per segment, with their pixel counts.
-  births_.resize(n + 1);
-  for (auto& v : births_) v.clear();
-  for (size_t i = 0; i < num_pixels_; ++i) {
-    const uint32_t r = labels[i];
-    uint8_t& f = flags_[i];
-    if ((f & (kRefSeen | kOnCand)) == 0 && !std::isnan(ref_z_[i])) {
-      // A surface labelled for the first time: in a segment, or the support.
-      f = static_cast<uint8_t>(f | kRefSeen | (r == 0 || r > n ? kRefBackground : 0));
+  // Arrivals per segment, with their pixel counts: runs of pixels of one arrival in scan order
+  // first (a segment has a few arrivals in long runs), then merged.
+  runs_.resize(n + 1);
+  for (auto& v : runs_) v.clear();
+  MarkFirstLabelled(num_pixels_, labels, n, ref_z_.data(), flags_.data());
+  {
+    const uint8_t* flags = flags_.data();
+    const int32_t* birth = ref_birth_.data();
+    const size_t num = num_pixels_;  // a local: not reloaded in the loop
+    for (size_t i = 0; i < num; ++i) {
+      const uint32_t r = labels[i];
+      if (r == 0 || r > n || !ArrivalKnown(flags[i])) continue;  // Arrival(i) < 0
+      std::vector<Entry>& runs = runs_[r];
+      if (!runs.empty() && runs.back().birth == birth[i]) {
+        ++runs.back().count;
+      } else {
+        runs.push_back(Entry{birth[i], 1});
+      }
     }
-    if (r == 0 || r > n) continue;
-    const int32_t b = Arrival(i);
-    if (b >= 0) births_[r].push_back(b);
   }
   uint32_t next = n + 1;
   entries_.resize(n + 1);
@@ -275,14 +366,16 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     std::vector<uint32_t>& to = to_[r];
     es.clear();
     to.clear();
-    std::vector<int32_t>& bs = births_[r];
-    if (bs.size() < static_cast<size_t>(params_.min_pixels)) continue;
-    std::sort(bs.begin(), bs.end());
-    for (const int32_t b : bs) {
-      if (es.empty() || es.back().birth != b) es.push_back(Entry{b, 0});
-      ++es.back().count;
+    std::vector<Entry>& runs = runs_[r];
+    uint32_t total = 0;
+    for (const Entry& e : runs) total += e.count;
+    if (total < static_cast<uint32_t>(params_.min_pixels)) continue;
+    std::sort(runs.begin(), runs.end(),
+              [](const Entry& a, const Entry& b) { return a.birth < b.birth; });
+    for (const Entry& e : runs) {
+      if (es.empty() || es.back().birth != e.birth) es.push_back(Entry{e.birth, 0});
+      es.back().count += e.count;
     }
-    const auto total = static_cast<uint32_t>(bs.size());
     // Groups: the arrivals of more than a few pixels in order, a new group after a gap of more
     // than gap_frames. Scattered arrivals (a pixel's noise now and then measured as a surface
     // in front) neither join groups nor make them; they go to the nearest part.

@@ -31,7 +31,8 @@ struct PartitionPriorParams;  // partition_prior.h: the homes of its parameters
 /// (pushed, picked up and put back) uncovers what was behind it; the segment next to such pixels
 /// takes the new arrival for all its surfaces of the old one, so a pushed object stays one object.
 ///
-/// State per pixel: 30 bytes (9.2 MB for 640 x 480; memory_bytes()), none while off
+/// State per pixel: 30 bytes and 1 of scratch (9.5 MB for 640 x 480; memory_bytes()), 4 more
+/// when the depths are read from the cloud (no scene depth given), none while off
 /// (gap_frames 0). Frame numbers are kept relative to the first frame after a Reset() (int32:
 /// two years at 30 Hz). Deterministic: the output depends only on the frames and labels given
 /// and their order. Thread-safety: not reentrant; one Apply at a time, frames in order.
@@ -99,11 +100,14 @@ class SurfaceHistory {
   std::vector<uint8_t> cand_n_, flags_;
 
   // Per frame.
+  std::vector<float> z_;             // the cloud's depths, when no scene depth is given
+  std::vector<uint8_t> todo_;        // pixels left to the full rules by Update's first pass
+  uint32_t last_changed_{0};         // pixels of a valid depth not on their surface, last frame
   std::vector<uint32_t> uncovered_;  // pixels that uncovered a surface of known arrival
   std::vector<int32_t> uncovered_birth_, uncovered_since_;
   std::vector<Moved> moved_;
-  std::vector<std::vector<int32_t>> births_;  // per segment: arrival of each pixel
-  std::vector<std::vector<Entry>> entries_;   // per segment: arrivals and pixel counts
+  std::vector<std::vector<Entry>> runs_;     // per segment: runs of pixels of one arrival
+  std::vector<std::vector<Entry>> entries_;  // per segment: arrivals and pixel counts
   std::vector<uint32_t> group_px_, label_of_;
   std::vector<std::vector<uint32_t>> to_;  // per segment, per entry: output label (0 = fill)
   std::vector<uint32_t> out_, pending_, pending_next_, taken_;

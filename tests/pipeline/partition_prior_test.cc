@@ -269,6 +269,20 @@ TEST(PartitionPrior, ABoxSetFlushOnAnotherIsAnotherObject) {
     ASSERT_EQ(r.objects.size(), 2u) << seq;
     EXPECT_NE(At(r, 20, 20), At(r, 40, 20)) << seq;
   }
+  // A hand over the whole view for eight frames, long enough to be confirmed as the surface
+  // (every pixel changes: the history steps its candidates in its vectorised pass), and taken
+  // away: the boxes come back with their arrivals.
+  const core::PointCloud hand = SceneOf([](int, int) { return 0.3f; });
+  for (int64_t seq = 72; seq < 80; ++seq) {
+    SegmentationResult r = Segmentation([](int, int) { return 0u; });
+    prior.Apply(hand, seq, &r);
+  }
+  for (int64_t seq = 80; seq < 86; ++seq) {
+    SegmentationResult r = Merged();
+    prior.Apply(both, seq, &r);
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_NE(At(r, 20, 20), At(r, 40, 20)) << seq;
+  }
   // Off: one object throughout.
   PartitionPriorParams off = defaults;
   off.arrival_gap_frames = 0;
