@@ -286,11 +286,19 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       }
     }
   }
-  // With depth: how much of each remembered track's surface every object shows.
+  // A track seen in the previous frame whose surface mostly changed there (hidden behind a new
+  // one, or taken away).
+  auto surface_changed = [&](const Track& t) {
+    return compare_depth && t.prev_label != 0 && prev_size[t.prev_label] > 0 &&
+           changed_size[t.prev_label] >= params.surface_change_min_share * prev_size[t.prev_label];
+  };
+  // With depth: how much of each remembered track's surface every object shows; also of a
+  // track seen in the previous frame whose surface changed (an occluder crossing it may leave
+  // in view a piece of it its previous mask does not reach).
   shown.assign(with_depth ? tracks.size() * static_cast<size_t>(num_dets) : 0, 0u);
   for (size_t r = 0; r < shown.size() / std::max(num_dets, 1); ++r) {
     const Track& t = tracks[r];
-    if (have_prev && t.last_seq == prev_seq) continue;  // visible: associated by its mask
+    if (have_prev && t.last_seq == prev_seq && !surface_changed(t)) continue;  // by its mask
     const uint32_t* cur = frame.labels.data.data();
     for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
       const uint32_t i = t.remembered_pixels[k];
@@ -317,6 +325,21 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const uint32_t i = inter(t, d);
     if (i == 0 || !compare_depth) return i;
     return i - changed_counts[t.prev_label * stride + frame.objects[static_cast<size_t>(d)].id];
+  };
+
+  // Whether object d shows track r's remembered surface, at its depth, with most of its pixels;
+  // the score of that association.
+  auto shows_surface = [&](int r, int d) {
+    if (shown.empty() || tracks[static_cast<size_t>(r)].remembered_pixels.empty()) return false;
+    const double n = shown[static_cast<size_t>(r) * num_dets + d];
+    return n > 0.0 && n >= params.part_min_fraction * det_pixel_count(d);
+  };
+  auto surface_score = [&](int r, int d) {
+    const double n = shown[static_cast<size_t>(r) * num_dets + d];
+    const double size = det_pixel_count(d);
+    const auto remembered =
+        static_cast<double>(tracks[static_cast<size_t>(r)].remembered_pixels.size());
+    return params.lost_score_factor * (0.5 * n / size + 0.5 * n / remembered);
   };
 
   // Association scores, tracks x objects; 0 = not allowed.
@@ -351,14 +374,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           const double near = std::max(0.0, 1.0 - dist / params.max_centroid_step_m);
           s = mask_weight * iou + geo_weight * (near + BoxIou(box, t.box));
           allowed = true;
+        } else if (shows_surface(r, d)) {  // a piece of a covered track out of its mask's reach
+          s = surface_score(r, d);
+          allowed = true;
         }
       } else if (with_depth && !t.remembered_pixels.empty()) {
         // A remembered surface: the object shows it, at its depth, with most of its pixels.
-        const double n = shown[static_cast<size_t>(r) * num_dets + d];
-        const double size = det_pixel_count(d);
-        if (n > 0.0 && n >= params.part_min_fraction * size) {
-          s = params.lost_score_factor *
-              (0.5 * n / size + 0.5 * n / static_cast<double>(t.remembered_pixels.size()));
+        if (shows_surface(r, d)) {
+          s = surface_score(r, d);
           allowed = true;
         }
       } else {
@@ -402,15 +425,12 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   if (compare_depth) {
     for (int r = 0; r < num_tracks; ++r) {
       const Track& t = tracks[static_cast<size_t>(r)];
-      if (t.prev_label == 0 || prev_size[t.prev_label] == 0 ||
-          changed_size[t.prev_label] < params.surface_change_min_share * prev_size[t.prev_label]) {
-        continue;
-      }
+      if (!surface_changed(t)) continue;
       changed_track[static_cast<size_t>(r)] = 1;
       for (int d = 0; d < num_dets; ++d) {
         const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
         const uint32_t i = unchanged(t, d);
-        if (i == 0 || i < params.part_min_fraction * size) {
+        if ((i == 0 || i < params.part_min_fraction * size) && !shows_surface(r, d)) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
         }
       }

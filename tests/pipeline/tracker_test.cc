@@ -394,6 +394,24 @@ TEST_F(TrackerDepthTest, WhatIsLeftInViewOfAHiddenTrackKeepsItsId) {
   }
 }
 
+TEST_F(TrackerDepthTest, APieceLeftInViewByACrossingOccluderKeepsItsId) {
+  // A long object, 25 cm wide.
+  const Surface whole{Rect{10, 10, 60, 30}, 1.0f, 1};
+  for (int f = 0; f < 4; ++f) EXPECT_EQ(Ids(Step({whole})), (std::vector<int64_t>{1}));
+  // An occluder in front hides its left part, then, moving right, all but its left end: the
+  // piece in view then lies off the previous mask and 17 cm from the previous centroid, but
+  // on the surface the track remembers.
+  const TrackingResult& right =
+      Step({Surface{Rect{45, 10, 60, 30}, 1.0f, 1}, Surface{Rect{10, 10, 45, 30}, 0.6f, 2}});
+  EXPECT_EQ(Ids(right), (std::vector<int64_t>{1, 2}));
+  const TrackingResult& left =
+      Step({Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 10, 60, 30}, 0.6f, 2}});
+  EXPECT_EQ(Ids(left), (std::vector<int64_t>{1, 2}));
+  EXPECT_FALSE(left.objects[0].reacquired);
+  // Without the depth the piece is a new object.
+  EXPECT_EQ(no_depth_out_.objects[0].track_id, 3);
+}
+
 TEST_F(TrackerDepthTest, ANewObjectWhereARememberedOneWasDoesNotTakeItsId) {
   const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2}, b_alone{kB, 1.0f, 1};
   for (int f = 0; f < 4; ++f) Step({a, b});
