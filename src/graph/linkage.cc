@@ -9,6 +9,7 @@
 #include <string>
 
 #include "clutterseg/core/scoped_timer.h"
+#include "clutterseg/core/union_find.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -27,17 +28,6 @@ constexpr size_t kRowGrain = 32;  // rows per band of the image border pass
 constexpr size_t kBridgeWorkPerSlot = 64;
 constexpr size_t kVoxelGrain = 2048;
 
-int32_t Find(std::vector<int32_t>& parent, int32_t x) {
-  int32_t root = x;
-  while (parent[root] != root) root = parent[root];
-  while (parent[x] != root) {
-    const int32_t next = parent[x];
-    parent[x] = root;
-    x = next;
-  }
-  return root;
-}
-
 // Union-find forest of the components over the kept edges of a CSR adjacency (`kept` per
 // slot): every root is the smallest member of its component.
 void JoinKept(const supervoxel::Supervoxels& sv, const std::vector<uint8_t>& kept,
@@ -51,8 +41,8 @@ void JoinKept(const supervoxel::Supervoxels& sv, const std::vector<uint8_t>& kep
     for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
       const uint32_t j = adj[s];
       if (j < i || !kept[s]) continue;
-      const int32_t a = Find(*parent, static_cast<int32_t>(i));
-      const int32_t b = Find(*parent, static_cast<int32_t>(j));
+      const int32_t a = core::FindRoot(parent->data(), static_cast<int32_t>(i));
+      const int32_t b = core::FindRoot(parent->data(), static_cast<int32_t>(j));
       if (a != b) (*parent)[std::max(a, b)] = std::min(a, b);
     }
   }
@@ -440,7 +430,7 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
   // With the root always the smallest member, components appear in order of their roots.
   int32_t num = 0;
   for (size_t i = 0; i < n; ++i) {
-    const int32_t r = Find(parent_, static_cast<int32_t>(i));
+    const int32_t r = core::FindRoot(parent_.data(), static_cast<int32_t>(i));
     out->segment[i] = (r == static_cast<int32_t>(i)) ? num++ : out->segment[r];
   }
 
@@ -462,13 +452,13 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
     fill_.assign(start.begin(), start.end() - 1);
     for (size_t i = 0; i < n; ++i) members[fill_[out->segment[i]]++] = static_cast<uint32_t>(i);
     for (int32_t s = 0; s < num; ++s) {
-      const int32_t r = Find(parent_, s);
+      const int32_t r = core::FindRoot(parent_.data(), s);
       if (size_[r] >= min_size) continue;
       int32_t best = -1;
       for (uint32_t m = start[s]; m < start[s + 1]; ++m) {
         const uint32_t i = members[m];
         for (uint32_t e = off[i]; e < off[i + 1]; ++e) {
-          const int32_t q = Find(parent_, out->segment[adj[e]]);
+          const int32_t q = core::FindRoot(parent_.data(), out->segment[adj[e]]);
           if (q == r) continue;
           if (best < 0 || size_[q] > size_[best] || (size_[q] == size_[best] && q < best)) {
             best = q;
@@ -483,7 +473,7 @@ void Linkage::Compute(const supervoxel::Supervoxels& sv, const PatchFeatures& f,
     new_id_.assign(num, -1);  // merged root -> new id
     int32_t next = 0;
     for (size_t i = 0; i < n; ++i) {
-      const int32_t r = Find(parent_, out->segment[i]);
+      const int32_t r = core::FindRoot(parent_.data(), out->segment[i]);
       if (new_id_[r] < 0) new_id_[r] = next++;
       out->segment[i] = new_id_[r];
     }
@@ -689,14 +679,14 @@ void Linkage::CutContactless(const supervoxel::Supervoxels& sv, LinkageResult* o
   // kept again (all restorations judged on the same components).
   JoinKept(sv, out->edge_kept, &parent_);
   size_.assign(n, 0);
-  for (size_t i = 0; i < n; ++i) ++size_[Find(parent_, static_cast<int32_t>(i))];
+  for (size_t i = 0; i < n; ++i) ++size_[core::FindRoot(parent_.data(), static_cast<int32_t>(i))];
   const auto min_side = static_cast<uint32_t>(params_.contact_cut_min_supervoxels);
   for (size_t i = 0; i < n; ++i) {
     for (uint32_t s = off[i]; s < off[i + 1]; ++s) {
       const uint32_t j = adj[s];
       if (j < i || contact_cut_[s] != 2) continue;
-      const int32_t a = Find(parent_, static_cast<int32_t>(i));
-      const int32_t b = Find(parent_, static_cast<int32_t>(j));
+      const int32_t a = core::FindRoot(parent_.data(), static_cast<int32_t>(i));
+      const int32_t b = core::FindRoot(parent_.data(), static_cast<int32_t>(j));
       if (a != b && std::min(size_[a], size_[b]) < min_side) {
         out->edge_kept[s] = out->edge_kept[reverse_slot_[s]] = 1;
       }
@@ -909,7 +899,7 @@ void Linkage::CutBridges(const supervoxel::Supervoxels& sv, const PatchFeatures&
   // Components over the kept edges; a side cut off later gets a new id.
   std::vector<int32_t>& comp = bridge_comp_;
   JoinKept(sv, kept, &comp);
-  for (size_t i = 0; i < n; ++i) comp[i] = Find(comp, static_cast<int32_t>(i));
+  for (size_t i = 0; i < n; ++i) comp[i] = core::FindRoot(comp.data(), static_cast<int32_t>(i));
   int32_t next_comp = static_cast<int32_t>(n);
 
   bridge_mark_.assign(n, 0u);

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "clutterseg/core/param_check.h"
+#include "clutterseg/core/union_find.h"
 
 namespace clutterseg::pipeline {
 namespace {
@@ -60,15 +61,6 @@ size_t PartitionPrior::memory_bytes() const {
 bool PartitionPrior::Still(float z, float z_prev) const {
   // NaN (no measurement) in either frame is not still.
   return std::abs(z - z_prev) <= band_.BandAt(z);
-}
-
-int PartitionPrior::Find(std::vector<int>* parent, int x) {
-  std::vector<int>& up = *parent;
-  while (up[static_cast<size_t>(x)] != x) {
-    up[static_cast<size_t>(x)] = up[static_cast<size_t>(up[static_cast<size_t>(x)])];
-    x = up[static_cast<size_t>(x)];
-  }
-  return x;
 }
 
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
@@ -182,8 +174,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
         const int count = (before != nullptr ? before->count : 0) + 1;
         new_merges_.push_back(PairCount{a, b, count});
         if (count >= params_.hold_frames) {
-          parent[static_cast<size_t>(Find(&parent, static_cast<int>(i)))] =
-              Find(&parent, static_cast<int>(j));
+          parent[static_cast<size_t>(core::FindRoot(parent.data(), static_cast<int>(i)))] =
+              core::FindRoot(parent.data(), static_cast<int>(j));
         }
       }
     }
@@ -192,12 +184,12 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     std::vector<uint32_t>& group_px = group_px_;
     group_px.assign(covered.size(), 0u);
     for (size_t k = 0; k < covered.size(); ++k) {
-      group_px[static_cast<size_t>(Find(&parent, static_cast<int>(k)))] +=
+      group_px[static_cast<size_t>(core::FindRoot(parent.data(), static_cast<int>(k)))] +=
           counts_rp_[r * stride + covered[k]];
     }
     int keeper = -1, groups = 0;
     for (size_t k = 0; k < covered.size(); ++k) {
-      if (Find(&parent, static_cast<int>(k)) != static_cast<int>(k)) continue;
+      if (core::FindRoot(parent.data(), static_cast<int>(k)) != static_cast<int>(k)) continue;
       ++groups;
       if (keeper < 0 || group_px[k] > group_px[static_cast<size_t>(keeper)]) {
         keeper = static_cast<int>(k);
@@ -213,11 +205,12 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     std::vector<uint32_t>& group_label = group_label_;
     group_label.assign(covered.size(), 0u);
     for (size_t k = 0; k < covered.size(); ++k) {
-      if (Find(&parent, static_cast<int>(k)) != static_cast<int>(k)) continue;
+      if (core::FindRoot(parent.data(), static_cast<int>(k)) != static_cast<int>(k)) continue;
       group_label[k] = static_cast<int>(k) == keeper ? r : next_label++;
     }
     for (size_t k = 0; k < covered.size(); ++k) {
-      to[covered[k]] = group_label[static_cast<size_t>(Find(&parent, static_cast<int>(k)))];
+      to[covered[k]] =
+          group_label[static_cast<size_t>(core::FindRoot(parent.data(), static_cast<int>(k)))];
     }
   }
 

@@ -149,7 +149,6 @@ class PartitionPrior {
   uint32_t Compact(uint32_t num_in, const uint32_t* in, size_t num_pixels, uint32_t* out);
   void Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
                 const std::vector<uint32_t>& counts, bool have_counts);
-  static int Find(std::vector<int>* parent, int x);
 
   PartitionPriorParams params_;
   TemporalFilterParams band_;  // its band_at_1m_m and min_band_m

@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "clutterseg/core/scoped_timer.h"
+#include "clutterseg/core/union_find.h"
 
 namespace clutterseg::pipeline {
 namespace {
@@ -71,13 +72,7 @@ struct AcrossBasis {
 
 }  // namespace
 
-int32_t Refiner::Find(int32_t x) {
-  while (parent_[x] != x) {
-    parent_[x] = parent_[parent_[x]];
-    x = parent_[x];
-  }
-  return x;
-}
+int32_t Refiner::Find(int32_t x) { return core::FindRoot(parent_.data(), x); }
 
 void Refiner::Union(int32_t a, int32_t b) {
   a = Find(a);

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "clutterseg/core/union_find.h"
 #include "clutterseg/pipeline/partition_prior.h"
 
 namespace clutterseg::pipeline {
@@ -504,10 +505,7 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
   // all arrived together, so their common arrival says nothing.
   parent_.resize(num_labels + 1);
   for (uint32_t l = 0; l <= num_labels; ++l) parent_[l] = l;
-  const auto find = [&](uint32_t x) {
-    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
-    return x;
-  };
+  const auto find = [&](uint32_t x) { return core::FindRoot(parent_.data(), x); };
   const auto min_contact = static_cast<uint32_t>(params_.rejoin_min_contact);
   const auto same_arrival = [&](uint32_t a, uint32_t b) {
     return lo_[a] > 0 && lo_[b] > 0 && lo_[b] - hi_[a] <= params_.gap_frames &&
