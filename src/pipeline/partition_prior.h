@@ -51,9 +51,10 @@ struct PartitionPriorParams {
   /// was behind) has moved, and all of it counts as arrived then: a pushed object stays whole.
   int arrival_moved_min_pixels{10};
   /// A part that the arrival split cut off a segment joins the neighbouring segment of the
-  /// same arrival (not the first frame's) with which it shares at least this many pairs of
-  /// 4-neighbour pixels within the depth band: the piece of an older object that the
-  /// segmentation gave to a newer neighbour goes back to the rest of its object. 0 = never.
+  /// same arrival (not the first frame's) with which it shares at least this many contacts
+  /// (pairs of 4-neighbour pixels, or of pixels one unlabelled pixel apart, whose depths lie
+  /// within two depth bands): the piece of an older object that the segmentation gave to a
+  /// newer neighbour goes back to the rest of its object. 0 = never.
   int arrival_rejoin_min_contact{3};
 
   /// Whether a PartitionPrior with these parameters changes anything (hold or arrivals on).

@@ -47,16 +47,17 @@ constexpr float kRejoinBands = 2.f;
 // on 0/1 values, selects) and with restrict pointers, so the compiler vectorises it; the
 // variant without candidates moves half the bytes per pixel.
 template <bool kCandidates>
-uint32_t StepWithoutBranches(size_t num, const float* __restrict zs, float min_band, float band_1m,
-                             int32_t now, int32_t confirm, const float* __restrict old_z,
-                             float* __restrict ref_z, float* __restrict cand_z,
-                             int32_t* __restrict cand_since, uint8_t* __restrict cand_n,
-                             uint8_t* __restrict flags, uint8_t* __restrict todo) {
+uint32_t StepWithoutBranches(size_t num, const float* __restrict zs,
+                             const TemporalFilterParams band_params, int32_t now, int32_t confirm,
+                             const float* __restrict old_z, float* __restrict ref_z,
+                             float* __restrict cand_z, int32_t* __restrict cand_since,
+                             uint8_t* __restrict cand_n, uint8_t* __restrict flags,
+                             uint8_t* __restrict todo) {
   uint32_t changed = 0;
   for (size_t i = 0; i < num; ++i) {
     const float z = zs[i], r = ref_z[i];
     const int32_t f = flags[i], n = cand_n[i];
-    const float band = std::max(min_band, band_1m * z * z);
+    const float band = band_params.BandAt(z);  // by value: no reload per pixel
     const int32_t valid = z > 0.f;
     const int32_t settled = valid & (std::abs(z - r) <= band);  // false for a NaN r
     ref_z[i] = settled ? z : r;
@@ -195,10 +196,10 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   const bool changing = 4 * static_cast<size_t>(last_changed_) > num_pixels_;
   last_changed_ =
       (changing ? StepWithoutBranches<true>
-                : StepWithoutBranches<false>)(num_pixels_, zs, band_.min_band_m, band_.band_at_1m_m,
-                                              now, params_.confirm_frames, old_z_.data(),
-                                              ref_z_.data(), cand_z_.data(), cand_since_.data(),
-                                              cand_n_.data(), flags_.data(), todo_.data());
+                : StepWithoutBranches<false>)(num_pixels_, zs, band_, now, params_.confirm_frames,
+                                              old_z_.data(), ref_z_.data(), cand_z_.data(),
+                                              cand_since_.data(), cand_n_.data(), flags_.data(),
+                                              todo_.data());
   const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
     if (i % 8 == 0 && i + 8 <= num_pixels_) {  // skip eight settled pixels at once

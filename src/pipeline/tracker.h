@@ -71,10 +71,10 @@ struct TrackerParams {
   /// against it and segmented with it), a view of which the track's own view is at most
   /// 1 - part_min_fraction, and whose box lies less than part_min_fraction inside the track's
   /// remembered box (an object uncovered by a leaving occluder grows back within it), is still
-  /// not the track's own: its own centroid and reference view
-  /// stay those of the object alone, so that when the objects by arrival cut the newcomer off
-  /// (segmenter.partition, up to arrival_confirm_frames + hold_frames - 2 frames later) the
-  /// track's id goes to its own object. 0 = only the frame it joined.
+  /// not the track's own: its own centroid and reference view stay those of the object alone,
+  /// so that when the objects by arrival cut the newcomer off (segmenter.partition, up to
+  /// arrival_confirm_frames + hold_frames - 2 frames later) the track's id goes to its own
+  /// object. 0 = only the frame it joined.
   int joined_view_frames{10};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the
