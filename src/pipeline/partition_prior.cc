@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "clutterseg/core/label_scan.h"
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/core/union_find.h"
 
@@ -20,6 +21,29 @@ T* FindCount(std::vector<T>* v, uint32_t a, uint32_t b) {
     }
   }
   return nullptr;
+}
+
+// Bits of a pixel's stillness (StepStillness).
+constexpr uint8_t kValid = 1;        // a depth in this frame
+constexpr uint8_t kStill = 2;        // within the band of the previous frame's depth
+constexpr uint8_t kEstablished = 4;  // still for hold_frames frames in a row
+
+// Each pixel's stillness against the previous frame's depth `prev_z` (NaN where there was
+// none) into `state`, and its still age (frames in a row, up to 255) updated. Written without
+// branches and with restrict pointers, so that the compiler vectorises it; the band by value.
+void StepStillness(size_t num, const core::Vec3f* __restrict xyz, const float* __restrict prev_z,
+                   const TemporalFilterParams band, int hold, uint8_t* __restrict age,
+                   uint8_t* __restrict state) {
+  for (size_t i = 0; i < num; ++i) {
+    const float z = xyz[i].z;
+    const int32_t valid = z > 0.f;
+    const int32_t still = valid & (std::abs(z - prev_z[i]) <= band.BandAt(z));  // NaN: false
+    const int32_t a = age[i];
+    const int32_t next = still * (a + (a < 255));
+    age[i] = static_cast<uint8_t>(next);
+    state[i] =
+        static_cast<uint8_t>(valid * kValid + still * kStill + (next >= hold) * kEstablished);
+  }
 }
 
 }  // namespace
@@ -58,11 +82,6 @@ size_t PartitionPrior::memory_bytes() const {
          still_age_.capacity() + history_.memory_bytes();
 }
 
-bool PartitionPrior::Still(float z, float z_prev) const {
-  // NaN (no measurement) in either frame is not still.
-  return std::abs(z - z_prev) <= band_.BandAt(z);
-}
-
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                            SegmentationResult* result, std::span<const float> scene_z) {
   counts_ = PartitionPriorCounts{};
@@ -99,26 +118,31 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   // previous object is established when most of its still pixels have been still for
   // hold_frames frames, so that a partition made in the frame of a change (the first view
   // after an occluder passed) is not held.
+  // Pixels that are background now and were before (the pair 0, 0) are not all counted: no
+  // rule reads that pair, and most of the image is such pixels (core::ForEachLabelled).
   counts_rp_.assign((n + 1) * stride, 0u);
   valid_r_.assign(n + 1, 0u);
   established_p_.assign(m + 1, 0u);
-  const int hold = params_.hold_frames;
-  for (size_t i = 0; i < num_pixels; ++i) {
-    const uint32_t r = labels[i] <= n ? labels[i] : 0;
-    const float z = cloud.xyz[i].z;
-    if (!(z > 0.f)) {
-      still_age_[i] = 0;
-      continue;
-    }
-    ++valid_r_[r];
-    if (!Still(z, prev_z_[i])) {
-      still_age_[i] = 0;
-      continue;
-    }
-    const uint32_t p = prev_labels_[i];
-    ++counts_rp_[r * stride + p];
-    if (still_age_[i] < 255) ++still_age_[i];
-    if (still_age_[i] >= hold) ++established_p_[p];
+  state_.resize(num_pixels);
+  StepStillness(num_pixels, cloud.xyz.data(), prev_z_.data(), band_, params_.hold_frames,
+                still_age_.data(), state_.data());
+  {
+    const uint8_t* state = state_.data();
+    const uint32_t* prev = prev_labels_.data();
+    uint32_t* counts = counts_rp_.data();
+    uint32_t* valid = valid_r_.data();
+    uint32_t* established = established_p_.data();
+    auto visit = [&](size_t i) {
+      const uint32_t s = state[i];
+      if (!(s & kValid)) return;
+      const uint32_t r = labels[i] <= n ? labels[i] : 0;
+      ++valid[r];
+      if (!(s & kStill)) return;
+      const uint32_t p = prev[i];
+      ++counts[r * stride + p];
+      established[p] += (s & kEstablished) >> 2;
+    };
+    core::ForEachLabelled(labels, prev, num_pixels, visit);
   }
   still_r_.assign(n + 1, 0u);
   still_p_.assign(m + 1, 0u);
@@ -276,8 +300,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   // The output against the previous frame, for the ids the next frame's counts refer to.
   counts_rp_.assign((num_labels + 1) * stride, 0u);
   for (size_t i = 0; i < num_pixels; ++i) {
-    const float z = cloud.xyz[i].z;
-    if (z > 0.f && Still(z, prev_z_[i])) ++counts_rp_[out[i] * stride + prev_labels_[i]];
+    if (state_[i] & kStill) ++counts_rp_[out[i] * stride + prev_labels_[i]];
   }
   Remember(cloud, *result, counts_rp_, true);
   prev_seq_ = frame_seq;

@@ -143,7 +143,6 @@ class PartitionPrior {
     int count;
   };
   bool enabled() const { return params_.enabled(); }
-  bool Still(float z, float z_prev) const;
   // Objects 1..num_labels of result's labels, their statistics computed again.
   void Describe(const core::PointCloudView& cloud, uint32_t num_labels, SegmentationResult* result);
   // Renumbers labels [0, num_in) of `in` to 1..count in label order into `out` (may alias).
@@ -169,6 +168,7 @@ class PartitionPrior {
   std::vector<IdCount> splits_;    // by id
 
   // Per-frame work buffers.
+  std::vector<uint8_t> state_;       // each pixel's stillness bits (StepStillness)
   std::vector<uint32_t> counts_rp_;  // (segment) x (previous label) still pixels
   std::vector<uint32_t> valid_r_, still_r_, still_p_, established_p_;
   std::vector<int> covered_n_;  // previous objects each segment covers

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "clutterseg/core/label_scan.h"
 #include "clutterseg/core/union_find.h"
 #include "clutterseg/pipeline/partition_prior.h"
 
@@ -343,16 +344,17 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     const uint8_t* flags = flags_.data();
     const int32_t* birth = ref_birth_.data();
     const size_t num = num_pixels_;  // a local: not reloaded in the loop
-    for (size_t i = 0; i < num; ++i) {
+    auto visit = [&](size_t i) {
       const uint32_t r = labels[i];
-      if (r == 0 || r > n || !ArrivalKnown(flags[i])) continue;  // Arrival(i) < 0
+      if (r == 0 || r > n || !ArrivalKnown(flags[i])) return;  // Arrival(i) < 0
       std::vector<Entry>& runs = runs_[r];
       if (!runs.empty() && runs.back().birth == birth[i]) {
         ++runs.back().count;
       } else {
         runs.push_back(Entry{birth[i], 1});
       }
-    }
+    };
+    core::ForEachLabelled(labels, labels, num, visit);  // background skipped
   }
   uint32_t next = n + 1;
   entries_.resize(n + 1);

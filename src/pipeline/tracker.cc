@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <limits>
 
+#include "clutterseg/core/label_scan.h"
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/optimize/assignment.h"
 
@@ -26,6 +26,23 @@ float Distance(const core::Vec3f& a, const core::Vec3f& b) {
 }
 
 float Diagonal(const Box& b) { return Distance(b.min, b.max); }
+
+// Whether each pixel's depth moved by at least max(min_step, the band at its previous depth)
+// since `prev_z` (false where either is NaN) into `changed` when `compare`, and `prev_z` set to
+// this frame's depth. Without branches and with restrict pointers: the compiler vectorises it.
+void StepDepths(size_t num, const core::Vec3f* __restrict xyz, float min_step,
+                const TemporalFilterParams band, bool compare, float* __restrict prev_z,
+                uint8_t* __restrict changed) {
+  if (compare) {
+    for (size_t i = 0; i < num; ++i) {
+      const float z = xyz[i].z, before = prev_z[i];
+      changed[i] = std::fabs(z - before) >= std::max(min_step, band.BandAt(before));
+      prev_z[i] = z;
+    }
+  } else {
+    for (size_t i = 0; i < num; ++i) prev_z[i] = xyz[i].z;
+  }
+}
 
 float Volume(const Box& b) {
   return std::max(0.f, b.max.x - b.min.x) * std::max(0.f, b.max.y - b.min.y) *
@@ -182,6 +199,7 @@ struct Tracker::Impl {
   std::vector<uint32_t> counts;  // (prev label) x (current label) pixel contingency
   // Of those, the pixels whose surface changed (a surface in front, or taken away).
   std::vector<uint32_t> changed_counts;
+  std::vector<uint8_t> depth_changed;  // per pixel: its depth moved since the previous frame
   std::vector<uint32_t> changed_size;  // per prev label
   std::vector<uint8_t> changed_track;
   // Per remembered track and object: the object's pixels showing the track's remembered
@@ -243,10 +261,17 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
     changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
-    // One pass counts the overlap and keeps this frame's labels for the next one. Most
-    // pixels are background in both frames: blocks of 8 such pixels are skipped at once.
+    // The depth steps first (every pixel, vectorised; only those of a track's pixels are
+    // read). Then one pass counts the overlap and keeps this frame's labels for the next one.
+    // Most pixels are background in both frames (core::ForEachLabelled skips them).
+    if (with_depth) {
+      depth_changed.resize(num_pixels);
+      StepDepths(num_pixels, cloud.xyz.data(), params.surface_change_min_step_m, band,
+                 compare_depth, prev_z.data(), depth_changed.data());
+    }
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
+    const uint8_t* moved = depth_changed.data();
     const bool contiguous = ids_contiguous;
     auto visit = [&](size_t i) {
       const uint32_t p = prev[i];
@@ -256,24 +281,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
       prev[i] = c;
       ++counts[p * stride + c];
-      if (!with_depth) return;
-      const float z = cloud.xyz[i].z;
-      if (compare_depth && p != 0 &&
-          std::fabs(z - prev_z[i]) >=
-              std::max(params.surface_change_min_step_m, band.BandAt(prev_z[i]))) {
-        ++changed_counts[p * stride + c];  // false for NaN
-      }
-      prev_z[i] = z;
+      if (compare_depth && p != 0) changed_counts[p * stride + c] += moved[i];
     };
-    size_t i = 0;
-    for (; i + 8 <= num_pixels; i += 8) {
-      uint64_t a[4], b[4];
-      std::memcpy(a, prev + i, sizeof(a));
-      std::memcpy(b, cur + i, sizeof(b));
-      if (((a[0] | b[0]) | (a[1] | b[1]) | (a[2] | b[2]) | (a[3] | b[3])) == 0) continue;
-      for (size_t j = i; j < i + 8; ++j) visit(j);
-    }
-    for (; i < num_pixels; ++i) visit(i);
+    core::ForEachLabelled(prev, cur, num_pixels, visit);
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);

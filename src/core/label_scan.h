@@ -1,0 +1,28 @@
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+namespace clutterseg::core {
+
+/// Calls `visit(i)` for every pixel index i < `num` at which label image `a` or `b` is not 0,
+/// and possibly at others: the images are read in blocks of eight pixels, and a block that is
+/// 0 in both (most of a frame is background in both) is skipped without a call. `visit` must
+/// therefore check the labels itself where a pixel of 0 in both matters. `b` may be `a`.
+///
+/// Thread-safety: reads `a` and `b` only; `visit` may write them at the index it is given.
+template <typename Visit>
+void ForEachLabelled(const uint32_t* a, const uint32_t* b, size_t num, Visit&& visit) {
+  size_t i = 0;
+  for (; i + 8 <= num; i += 8) {
+    uint64_t x[4], y[4];
+    std::memcpy(x, a + i, sizeof(x));
+    std::memcpy(y, b + i, sizeof(y));
+    if (((x[0] | y[0]) | (x[1] | y[1]) | (x[2] | y[2]) | (x[3] | y[3])) == 0) continue;
+    for (size_t j = i; j < i + 8; ++j) visit(j);
+  }
+  for (; i < num; ++i) visit(i);
+}
+
+}  // namespace clutterseg::core
