@@ -71,7 +71,8 @@ struct Daemon::Impl {
                    const std::string* error) { Complete(lane, item, error); }) {
     if (config.overlay.enabled()) overlay = std::make_unique<OverlayWriter>(config.overlay);
     if (config.track_objects) {
-      tracker = std::make_unique<pipeline::Tracker>(config.tracker, config.segmenter.temporal);
+      tracker = std::make_unique<pipeline::Tracker>(config.tracker, config.segmenter.temporal,
+                                                    runner.pool());
     }
     if (extrinsics) {
       Log(LogLevel::kInfo, "objects in frame '" + extrinsics->parent_frame + "' (" +
@@ -352,7 +353,8 @@ struct Daemon::Impl {
     }
     partition.reset();
     if (stream_source && p.partition.enabled()) {
-      partition = std::make_unique<pipeline::PartitionPrior>(p.partition, p.temporal);
+      partition =
+          std::make_unique<pipeline::PartitionPrior>(p.partition, p.temporal, runner.pool());
     }
   }
 

@@ -27,6 +27,8 @@ T* FindCount(std::vector<T>* v, uint32_t a, uint32_t b) {
 constexpr uint8_t kValid = 1;        // a depth in this frame
 constexpr uint8_t kStill = 2;        // within the band of the previous frame's depth
 constexpr uint8_t kEstablished = 4;  // still for hold_frames frames in a row
+// Pixels per chunk of the per-pixel step on the pool (a tenth of a 640 x 480 frame).
+constexpr size_t kStepGrain = size_t{1} << 15;
 
 // Each pixel's stillness against the previous frame's depth `prev_z` (NaN where there was
 // none) into `state`, and its still age (frames in a row, up to 255) updated. Written without
@@ -65,8 +67,13 @@ void PartitionPriorParams::ValidateOrThrow() const {
                 "(0 = never)");
 }
 
-PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band)
-    : params_((params.ValidateOrThrow(), params)), band_(band), history_(params, band) {}
+PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band,
+                               core::ThreadPool* pool)
+    : params_((params.ValidateOrThrow(), params)),
+      band_(band),
+      pool_(pool),
+      extractor_(pool),
+      history_(params, band, pool) {}
 
 PartitionPrior::~PartitionPrior() = default;
 
@@ -124,8 +131,10 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   valid_r_.assign(n + 1, 0u);
   established_p_.assign(m + 1, 0u);
   state_.resize(num_pixels);
-  StepStillness(num_pixels, cloud.xyz.data(), prev_z_.data(), band_, params_.hold_frames,
-                still_age_.data(), state_.data());
+  core::ForChunks(pool_, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+    StepStillness(e - b, cloud.xyz.data() + b, prev_z_.data() + b, band_, params_.hold_frames,
+                  still_age_.data() + b, state_.data() + b);
+  });
   {
     const uint8_t* state = state_.data();
     const uint32_t* prev = prev_labels_.data();

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
 #include "clutterseg/pipeline/objects.h"
 #include "clutterseg/pipeline/segmentation_result.h"
 #include "clutterseg/pipeline/surface_history.h"
@@ -108,8 +109,11 @@ struct PartitionPriorCounts {
 class PartitionPrior {
  public:
   /// `band` gives the depth band within which a pixel counts as still (its band_at_1m_m and
-  /// min_band_m). @throws std::invalid_argument when `params` fail validation.
-  PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band);
+  /// min_band_m). `pool` (may be null; it must outlive the prior) runs the per-pixel steps in
+  /// chunks; the output does not depend on it. @throws std::invalid_argument when `params` fail
+  /// validation.
+  PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band,
+                 core::ThreadPool* pool = nullptr);
   ~PartitionPrior();
   PartitionPrior(const PartitionPrior&) = delete;
   PartitionPrior& operator=(const PartitionPrior&) = delete;
@@ -152,6 +156,7 @@ class PartitionPrior {
 
   PartitionPriorParams params_;
   TemporalFilterParams band_;  // its band_at_1m_m and min_band_m
+  core::ThreadPool* pool_;     // may be null
   PartitionPriorCounts counts_;
   ObjectExtractor extractor_;
   SurfaceHistory history_;

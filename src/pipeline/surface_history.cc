@@ -23,6 +23,8 @@ constexpr uint8_t kRefBackground = 32;
 constexpr uint8_t kOldSeen = 64;
 constexpr uint8_t kOldBackground = 128;
 constexpr uint8_t kRefClass = kRefSeen | kRefBackground;
+// Pixels per chunk of the per-pixel step on the pool (a tenth of a 640 x 480 frame).
+constexpr size_t kStepGrain = size_t{1} << 15;
 constexpr uint8_t kOldClass = kOldSeen | kOldBackground;
 
 // Whether a pixel of these flags has an arrival (SurfaceHistory::Arrival).
@@ -135,14 +137,16 @@ void FillFromNeighbours(const uint32_t* in, int w, int h, std::vector<uint32_t>*
   for (const uint32_t i : *pending) out[i] = in[i];  // unreached: the segment's own label
 }
 
-SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band)
+SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band,
+                               core::ThreadPool* pool)
     : params_{params.arrival_gap_frames,
               params.arrival_confirm_frames,
               params.min_pixels,
               params.arrival_moved_min_pixels,
               params.arrival_rejoin_min_contact,
               params.arrival_min_share},
-      band_(band) {}
+      band_(band),
+      pool_(pool) {}
 
 void SurfaceHistory::Reset() { have_ = false; }
 
@@ -194,13 +198,18 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   todo_.resize(num_pixels_);
   // The candidates' step moves twice the bytes per pixel; it pays where most pixels changed in
   // the previous frame (a new view, a camera carried around).
+  // Every pixel on its own: in chunks on the pool, the counts added in chunk order.
   const bool changing = 4 * static_cast<size_t>(last_changed_) > num_pixels_;
-  last_changed_ =
-      (changing ? StepWithoutBranches<true>
-                : StepWithoutBranches<false>)(num_pixels_, zs, band_, now, params_.confirm_frames,
-                                              old_z_.data(), ref_z_.data(), cand_z_.data(),
-                                              cand_since_.data(), cand_n_.data(), flags_.data(),
-                                              todo_.data());
+  const auto step = changing ? StepWithoutBranches<true> : StepWithoutBranches<false>;
+  chunk_changed_.assign(core::ThreadPool::NumChunks(num_pixels_, kStepGrain), 0u);
+  core::ForChunks(pool_, num_pixels_, kStepGrain, [&](size_t b, size_t e) {
+    chunk_changed_[b / kStepGrain] =
+        step(e - b, zs + b, band_, now, params_.confirm_frames, old_z_.data() + b,
+             ref_z_.data() + b, cand_z_.data() + b, cand_since_.data() + b, cand_n_.data() + b,
+             flags_.data() + b, todo_.data() + b);
+  });
+  last_changed_ = 0;
+  for (const uint32_t c : chunk_changed_) last_changed_ += c;
   const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
     if (i % 8 == 0 && i + 8 <= num_pixels_) {  // skip eight settled pixels at once

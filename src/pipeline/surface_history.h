@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
 #include "clutterseg/pipeline/temporal_filter.h"
 
 namespace clutterseg::pipeline {
@@ -35,12 +36,15 @@ struct PartitionPriorParams;  // partition_prior.h: the homes of its parameters
 /// when the depths are read from the cloud (no scene depth given), none while off
 /// (gap_frames 0). Frame numbers are kept relative to the first frame after a Reset() (int32:
 /// two years at 30 Hz). Deterministic: the output depends only on the frames and labels given
-/// and their order. Thread-safety: not reentrant; one Apply at a time, frames in order.
+/// and their order, whatever the pool. Thread-safety: not reentrant; one Apply at a time,
+/// frames in order.
 class SurfaceHistory {
  public:
   /// Its parameters are the `arrival_*` keys and min_pixels of `params` (0 arrival_gap_frames
-  /// = off, no state kept) and the depth band of `band` (band_at_1m_m, min_band_m).
-  SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band);
+  /// = off, no state kept) and the depth band of `band` (band_at_1m_m, min_band_m). `pool` (may
+  /// be null; it must outlive the history) runs the per-pixel step in chunks of rows.
+  SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band,
+                 core::ThreadPool* pool = nullptr);
 
   /// Forgets every pixel's history.
   void Reset();
@@ -89,6 +93,7 @@ class SurfaceHistory {
   };
   Params params_;
   TemporalFilterParams band_;  // its depth band (BandAt)
+  core::ThreadPool* pool_;     // may be null
   bool have_{false};
   int64_t base_seq_{0};
   size_t num_pixels_{0};
@@ -100,10 +105,11 @@ class SurfaceHistory {
   std::vector<uint8_t> cand_n_, flags_;
 
   // Per frame.
-  std::vector<float> z_;             // the cloud's depths, when no scene depth is given
-  std::vector<uint8_t> todo_;        // pixels left to the full rules by Update's first pass
-  uint32_t last_changed_{0};         // pixels of a valid depth not on their surface, last frame
-  std::vector<uint32_t> uncovered_;  // pixels that uncovered a surface of known arrival
+  std::vector<float> z_;                 // the cloud's depths, when no scene depth is given
+  std::vector<uint8_t> todo_;            // pixels left to the full rules by Update's first pass
+  uint32_t last_changed_{0};             // pixels of a valid depth not on their surface, last frame
+  std::vector<uint32_t> chunk_changed_;  // the same per chunk of this frame's step
+  std::vector<uint32_t> uncovered_;      // pixels that uncovered a surface of known arrival
   std::vector<int32_t> uncovered_birth_, uncovered_since_;
   std::vector<Moved> moved_;
   std::vector<std::vector<Entry>> runs_;     // per segment: runs of pixels of one arrival

@@ -15,6 +15,8 @@ namespace {
 // An association that passed its gate scores at least this much, so that a gated pair is
 // never confused with a forbidden one (score 0).
 constexpr double kMinScore = 1e-3;
+// Pixels per chunk of the per-pixel depth step on the pool (a tenth of a 640 x 480 frame).
+constexpr size_t kStepGrain = size_t{1} << 15;
 
 struct Box {
   core::Vec3f min, max;
@@ -137,7 +139,8 @@ struct Tracker::Impl {
     int64_t joined_seq{-1};    // the last frame a new surface joined its view (-1: never)
   };
 
-  Impl(const TrackerParams& p, const TemporalFilterParams& b) : params(p), band(b) {
+  Impl(const TrackerParams& p, const TemporalFilterParams& b, core::ThreadPool* q)
+      : params(p), band(b), pool(q) {
     params.ValidateOrThrow();
     band.ValidateOrThrow();
   }
@@ -183,6 +186,7 @@ struct Tracker::Impl {
 
   TrackerParams params;
   TemporalFilterParams band;
+  core::ThreadPool* pool;     // may be null: the per-pixel depth step in chunks
   std::vector<Track> tracks;  // by increasing id
   int64_t next_id{1};
   bool have_prev{false};      // a previous frame exists (prev_seq valid)
@@ -266,8 +270,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     // Most pixels are background in both frames (core::ForEachLabelled skips them).
     if (with_depth) {
       depth_changed.resize(num_pixels);
-      StepDepths(num_pixels, cloud.xyz.data(), params.surface_change_min_step_m, band,
-                 compare_depth, prev_z.data(), depth_changed.data());
+      core::ForChunks(pool, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+        StepDepths(e - b, cloud.xyz.data() + b, params.surface_change_min_step_m, band,
+                   compare_depth, prev_z.data() + b, depth_changed.data() + b);
+      });
     }
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
@@ -718,8 +724,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   have_prev = true;
 }
 
-Tracker::Tracker(const TrackerParams& params, const TemporalFilterParams& band)
-    : impl_(std::make_unique<Impl>(params, band)) {}
+Tracker::Tracker(const TrackerParams& params, const TemporalFilterParams& band,
+                 core::ThreadPool* pool)
+    : impl_(std::make_unique<Impl>(params, band, pool)) {}
 Tracker::~Tracker() = default;
 
 void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
+#include "clutterseg/core/thread_pool.h"
 #include "clutterseg/core/types.h"
 #include "clutterseg/pipeline/segmentation_result.h"
 #include "clutterseg/pipeline/temporal_filter.h"
@@ -185,7 +186,8 @@ struct TrackingResult {
 ///
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).
-/// It is sequential and deterministic: the same frames give the same output. Work buffers
+/// It is sequential and deterministic: the same frames give the same output, whatever the
+/// pool (which only runs the per-pixel depth step in chunks). Work buffers
 /// are kept, so steady-state frames do not allocate.
 /// Complexity: O(pixels + tracks x objects x min(tracks, objects)) per frame.
 class Tracker {
@@ -195,8 +197,10 @@ class Tracker {
 
   /// `band` is the depth band of the sensor's noise (TemporalFilterParams::BandAt) that tells
   /// a surface that stayed from one that changed (TrackerParams::surface_change_min_step_m).
+  /// `pool` may be null and must outlive the tracker.
   /// @throws std::invalid_argument when `params` or `band` fail validation (naming the key).
-  explicit Tracker(const TrackerParams& params, const TemporalFilterParams& band = {});
+  explicit Tracker(const TrackerParams& params, const TemporalFilterParams& band = {},
+                   core::ThreadPool* pool = nullptr);
   ~Tracker();
 
   /// Tracks the objects of `frame`, the segmentation of the camera frame numbered
