@@ -4,6 +4,7 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <future>
 #include <memory>
@@ -160,6 +161,23 @@ void ForChunks(ThreadPool* pool, size_t n, size_t grain, const Fn& fn) {
     return;
   }
   pool->ParallelFor(n, grain, fn);
+}
+
+/// Counts over the chunks of [0, n) as ForChunks runs them: `fn(begin, end, table)` adds into
+/// `table`, `size` counters of its chunk's own (zeroed first; `scratch` holds them), and the
+/// chunks' tables are then added into `out` (`size` counters, not zeroed here). Counts are
+/// sums, so `out` does not depend on the pool.
+template <typename Fn>
+void CountInChunks(ThreadPool* pool, size_t n, size_t grain, size_t size,
+                   std::vector<uint32_t>* scratch, uint32_t* out, const Fn& fn) {
+  const size_t chunks = ThreadPool::NumChunks(n, grain);
+  scratch->assign(chunks * size, 0u);
+  uint32_t* tables = scratch->data();
+  ForChunks(pool, n, grain, [&](size_t b, size_t e) { fn(b, e, tables + (b / grain) * size); });
+  for (size_t k = 0; k < chunks; ++k) {
+    const uint32_t* t = tables + k * size;
+    for (size_t j = 0; j < size; ++j) out[j] += t[j];
+  }
 }
 
 }  // namespace clutterseg::core

@@ -125,8 +125,8 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   // previous object is established when most of its still pixels have been still for
   // hold_frames frames, so that a partition made in the frame of a change (the first view
   // after an occluder passed) is not held.
-  // Pixels that are background now and were before (the pair 0, 0) are not all counted: no
-  // rule reads that pair, and most of the image is such pixels (core::ForEachLabelled).
+  // Pixels that are background now and were before (the pair 0, 0) are not counted: no rule
+  // reads that pair, and most of the image is such pixels (core::ForEachLabelled).
   counts_rp_.assign((n + 1) * stride, 0u);
   valid_r_.assign(n + 1, 0u);
   established_p_.assign(m + 1, 0u);
@@ -136,22 +136,34 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                   still_age_.data() + b, state_.data() + b);
   });
   {
+    // Per chunk of pixels (on the pool) into one table: counts_rp_, valid_r_, established_p_.
     const uint8_t* state = state_.data();
     const uint32_t* prev = prev_labels_.data();
-    uint32_t* counts = counts_rp_.data();
-    uint32_t* valid = valid_r_.data();
-    uint32_t* established = established_p_.data();
-    auto visit = [&](size_t i) {
-      const uint32_t s = state[i];
-      if (!(s & kValid)) return;
-      const uint32_t r = labels[i] <= n ? labels[i] : 0;
-      ++valid[r];
-      if (!(s & kStill)) return;
-      const uint32_t p = prev[i];
-      ++counts[r * stride + p];
-      established[p] += (s & kEstablished) >> 2;
-    };
-    core::ForEachLabelled(labels, prev, num_pixels, visit);
+    const size_t num_counts = counts_rp_.size();
+    tables_.assign(num_counts + valid_r_.size() + established_p_.size(), 0u);
+    core::CountInChunks(pool_, num_pixels, kStepGrain, tables_.size(), &chunk_tables_,
+                        tables_.data(), [&](size_t b, size_t e, uint32_t* table) {
+                          uint32_t* counts = table;
+                          uint32_t* valid = table + num_counts;
+                          uint32_t* established = valid + (n + 1);
+                          core::ForEachLabelled(labels + b, prev + b, e - b, [&](size_t j) {
+                            const size_t i = b + j;
+                            const uint32_t s = state[i];
+                            if ((labels[i] | prev[i]) == 0 || !(s & kValid)) return;
+                            const uint32_t r = labels[i] <= n ? labels[i] : 0;
+                            ++valid[r];
+                            if (!(s & kStill)) return;
+                            const uint32_t p = prev[i];
+                            ++counts[r * stride + p];
+                            established[p] += (s & kEstablished) >> 2;
+                          });
+                        });
+    const auto from = tables_.begin();
+    const auto valid_at = from + static_cast<ptrdiff_t>(num_counts);
+    const auto established_at = valid_at + static_cast<ptrdiff_t>(n + 1);
+    std::copy(from, valid_at, counts_rp_.begin());
+    std::copy(valid_at, established_at, valid_r_.begin());
+    std::copy(established_at, tables_.end(), established_p_.begin());
   }
   still_r_.assign(n + 1, 0u);
   still_p_.assign(m + 1, 0u);
@@ -381,16 +393,16 @@ void PartitionPrior::Remember(const core::PointCloudView& cloud, const Segmentat
   }
   prev_id_.swap(id);
   prev_labels_.resize(num_pixels);
-  for (size_t i = 0; i < num_pixels; ++i) {
-    const uint32_t l = result.labels.data[i];
-    prev_labels_[i] = l <= n ? l : 0;
-  }
   if (still_age_.size() != num_pixels || !have_prev_) still_age_.assign(num_pixels, 0);
   prev_z_.resize(num_pixels);
-  for (size_t i = 0; i < num_pixels; ++i) {
-    const float z = cloud.xyz[i].z;
-    prev_z_[i] = z > 0.f ? z : std::numeric_limits<float>::quiet_NaN();
-  }
+  core::ForChunks(pool_, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+    for (size_t i = b; i < e; ++i) {
+      const uint32_t l = result.labels.data[i];
+      prev_labels_[i] = l <= n ? l : 0;
+      const float z = cloud.xyz[i].z;
+      prev_z_[i] = z > 0.f ? z : std::numeric_limits<float>::quiet_NaN();
+    }
+  });
   width_ = result.labels.width;
   height_ = result.labels.height;
   have_prev_ = true;

@@ -173,8 +173,9 @@ class PartitionPrior {
   std::vector<IdCount> splits_;    // by id
 
   // Per-frame work buffers.
-  std::vector<uint8_t> state_;       // each pixel's stillness bits (StepStillness)
-  std::vector<uint32_t> counts_rp_;  // (segment) x (previous label) still pixels
+  std::vector<uint8_t> state_;                   // each pixel's stillness bits (StepStillness)
+  std::vector<uint32_t> tables_, chunk_tables_;  // the counts below as counted, per chunk
+  std::vector<uint32_t> counts_rp_;              // (segment) x (previous label) still pixels
   std::vector<uint32_t> valid_r_, still_r_, still_p_, established_p_;
   std::vector<int> covered_n_;  // previous objects each segment covers
   std::vector<PairCount> new_merges_;

@@ -203,6 +203,7 @@ struct Tracker::Impl {
   std::vector<uint32_t> counts;  // (prev label) x (current label) pixel contingency
   // Of those, the pixels whose surface changed (a surface in front, or taken away).
   std::vector<uint32_t> changed_counts;
+  std::vector<uint32_t> overlap_tables, chunk_tables;  // counts and changed_counts, counted
   std::vector<uint8_t> depth_changed;  // per pixel: its depth moved since the previous frame
   std::vector<uint32_t> changed_size;  // per prev label
   std::vector<uint8_t> changed_track;
@@ -275,21 +276,33 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                    compare_depth, prev_z.data() + b, depth_changed.data() + b);
       });
     }
+    // Per chunk of pixels (on the pool): the overlap, then the changed pixels of it.
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
     const uint8_t* moved = depth_changed.data();
     const bool contiguous = ids_contiguous;
-    auto visit = [&](size_t i) {
-      const uint32_t p = prev[i];
-      uint32_t c = cur[i];
-      if ((p | c) == 0) return;
-      // A label without an object is background.
-      if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
-      prev[i] = c;
-      ++counts[p * stride + c];
-      if (compare_depth && p != 0) changed_counts[p * stride + c] += moved[i];
-    };
-    core::ForEachLabelled(prev, cur, num_pixels, visit);
+    const size_t table = counts.size();
+    overlap_tables.assign(table + changed_counts.size(), 0u);
+    core::CountInChunks(pool, num_pixels, kStepGrain, overlap_tables.size(), &chunk_tables,
+                        overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
+                          uint32_t* both = tables;  // this chunk's overlap counts
+                          uint32_t* changed = tables + table;
+                          core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
+                            const size_t i = b + j;
+                            const uint32_t p = prev[i];
+                            uint32_t c = cur[i];
+                            if ((p | c) == 0) return;
+                            // A label without an object is background.
+                            if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
+                            prev[i] = c;
+                            ++both[p * stride + c];
+                            if (compare_depth && p != 0) changed[p * stride + c] += moved[i];
+                          });
+                        });
+    std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
+              counts.begin());
+    std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), overlap_tables.end(),
+              changed_counts.begin());
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);

@@ -1,0 +1,62 @@
+// The per-pixel passes' building blocks: ForEachLabelled visits every pixel labelled in either
+// image (and skips blocks of background), CountInChunks adds per-chunk counts into the same
+// totals with or without a pool.
+#include "clutterseg/core/label_scan.h"
+
+#include <cstdint>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "clutterseg/core/thread_pool.h"
+
+namespace clutterseg::core {
+namespace {
+
+TEST(ForEachLabelled, VisitsEveryPixelLabelledInEitherImageAndSkipsBackgroundBlocks) {
+  // 8 blocks of eight and a tail of 5: labels in a only, in b only, in both, at the tail.
+  constexpr size_t n = 8 * 8 + 5;
+  std::vector<uint32_t> a(n, 0u), b(n, 0u);
+  a[3] = 1;           // block 0
+  b[17] = 2;          // block 2
+  a[40] = b[41] = 3;  // block 5
+  a[n - 1] = 4;       // tail
+  std::vector<int> visits(n, 0);
+  ForEachLabelled(a.data(), b.data(), n, [&](size_t i) { ++visits[i]; });
+  for (size_t i = 0; i < n; ++i) {
+    const bool labelled = (a[i] | b[i]) != 0;
+    if (labelled) {
+      EXPECT_EQ(visits[i], 1) << i;
+    }
+    EXPECT_LE(visits[i], 1) << i;
+  }
+  // Blocks 1, 3, 4, 6 and 7 are background in both: none of their pixels is visited.
+  for (const size_t block : {1u, 3u, 4u, 6u, 7u}) {
+    for (size_t i = block * 8; i < block * 8 + 8; ++i) EXPECT_EQ(visits[i], 0) << i;
+  }
+}
+
+TEST(CountInChunks, AddsUpToTheSerialCountWhateverThePool) {
+  constexpr size_t n = 100003, bins = 7, grain = 1000;
+  std::vector<uint32_t> expected(bins, 1u);  // the output is not zeroed: counts add to it
+  for (size_t i = 0; i < n; ++i) ++expected[(i * i) % bins];
+  std::vector<uint32_t> scratch, out;
+  const auto count = [&](ThreadPool* pool) {
+    out.assign(bins, 1u);
+    CountInChunks(pool, n, grain, bins, &scratch, out.data(),
+                  [&](size_t b, size_t e, uint32_t* table) {
+                    for (size_t i = b; i < e; ++i) ++table[(i * i) % bins];
+                  });
+  };
+  count(nullptr);
+  EXPECT_EQ(out, expected);
+  EXPECT_EQ(scratch.size(), ThreadPool::NumChunks(n, grain) * bins);
+  for (const int threads : {1, 2, 3}) {
+    ThreadPool pool(threads);
+    count(&pool);
+    EXPECT_EQ(out, expected) << threads;
+  }
+}
+
+}  // namespace
+}  // namespace clutterseg::core
