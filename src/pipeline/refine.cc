@@ -481,16 +481,32 @@ void Refiner::CutVesselRims(const supervoxel::Supervoxels& sv, const graph::Patc
 void Refiner::MarkTouchingTaken(const supervoxel::Supervoxels& sv,
                                 const geometry::PlanarRegions& support_first) {
   // A supervoxel touches the taken pixels when one of its pixels has a taken 4-neighbour;
-  // supervoxels already marked (touching, or kSkip) are not looked at again.
+  // supervoxels already marked (touching, or kSkip) are not looked at again. Per word of a row,
+  // the pixels with a taken 4-neighbour are the row's taken bits shifted by one either way (with
+  // the bit carried from the next word) and the taken bits of the rows above and below. Taken
+  // pixels were invalid in the cloud the supervoxels grew in and carry none: only the pixels
+  // next to the taken ones are visited.
   const size_t w = static_cast<size_t>(sv.width), h = static_cast<size_t>(sv.height);
+  const size_t words = support_first.taken_words_per_row;
+  const size_t rows = words == 0 ? 0 : support_first.taken_bits.size() / words;
+  const uint64_t* const bits = support_first.taken_bits.data();
+  const auto word = [&](size_t v, size_t k) -> uint64_t {
+    return v < rows && k < words ? bits[v * words + k] : 0u;
+  };
   const int32_t* const pixel = sv.pixel_label.data();
   for (size_t v = 0; v < h; ++v) {
-    for (size_t u = 0; u < w; ++u) {
-      const int32_t s = pixel[v * w + u];
-      if (s < 0 || touches_taken_[s]) continue;
-      if ((u > 0 && support_first.Taken(u - 1, v)) || support_first.Taken(u + 1, v) ||
-          (v > 0 && support_first.Taken(u, v - 1)) || support_first.Taken(u, v + 1)) {
-        touches_taken_[s] = 1;
+    for (size_t k = 0; k < words && k * 64 < w; ++k) {
+      const uint64_t here = word(v, k);
+      const uint64_t left = (here << 1) | (k > 0 ? word(v, k - 1) >> 63 : 0u);  // u - 1 taken
+      const uint64_t right = (here >> 1) | (word(v, k + 1) << 63);              // u + 1 taken
+      const uint64_t above = v > 0 ? word(v - 1, k) : 0u;
+      uint64_t touch = (left | right | above | word(v + 1, k)) & ~here;
+      while (touch != 0) {
+        const size_t u = k * 64 + static_cast<size_t>(__builtin_ctzll(touch));
+        touch &= touch - 1;
+        if (u >= w) break;
+        const int32_t s = pixel[v * w + u];
+        if (s >= 0 && !touches_taken_[s]) touches_taken_[s] = 1;
       }
     }
   }
