@@ -6,6 +6,10 @@
 
 namespace clutterseg::core {
 
+/// Pixels per chunk of a per-pixel pass run on a ThreadPool (ForChunks, CountInChunks): a tenth
+/// of a 640 x 480 frame, so that two threads share a frame's pass evenly.
+inline constexpr size_t kPixelGrain = size_t{1} << 15;
+
 /// Calls `visit(i)` for every pixel index i < `num` at which label image `a` or `b` is not 0,
 /// and possibly at others: the images are read in blocks of eight pixels, and a block that is
 /// 0 in both (most of a frame is background in both) is skipped without a call. `visit` must

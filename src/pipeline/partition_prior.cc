@@ -27,8 +27,6 @@ T* FindCount(std::vector<T>* v, uint32_t a, uint32_t b) {
 constexpr uint8_t kValid = 1;        // a depth in this frame
 constexpr uint8_t kStill = 2;        // within the band of the previous frame's depth
 constexpr uint8_t kEstablished = 4;  // still for hold_frames frames in a row
-// Pixels per chunk of the per-pixel step on the pool (a tenth of a 640 x 480 frame).
-constexpr size_t kStepGrain = size_t{1} << 15;
 
 // Each pixel's stillness against the previous frame's depth `prev_z` (NaN where there was
 // none) into `state`, and its still age (frames in a row, up to 255) updated. Written without
@@ -131,7 +129,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   valid_r_.assign(n + 1, 0u);
   established_p_.assign(m + 1, 0u);
   state_.resize(num_pixels);
-  core::ForChunks(pool_, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+  core::ForChunks(pool_, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
     StepStillness(e - b, cloud.xyz.data() + b, prev_z_.data() + b, band_, params_.hold_frames,
                   still_age_.data() + b, state_.data() + b);
   });
@@ -141,7 +139,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     const uint32_t* prev = prev_labels_.data();
     const size_t num_counts = counts_rp_.size();
     tables_.assign(num_counts + valid_r_.size() + established_p_.size(), 0u);
-    core::CountInChunks(pool_, num_pixels, kStepGrain, tables_.size(), &chunk_tables_,
+    core::CountInChunks(pool_, num_pixels, core::kPixelGrain, tables_.size(), &chunk_tables_,
                         tables_.data(), [&](size_t b, size_t e, uint32_t* table) {
                           uint32_t* counts = table;
                           uint32_t* valid = table + num_counts;
@@ -395,7 +393,7 @@ void PartitionPrior::Remember(const core::PointCloudView& cloud, const Segmentat
   prev_labels_.resize(num_pixels);
   if (still_age_.size() != num_pixels || !have_prev_) still_age_.assign(num_pixels, 0);
   prev_z_.resize(num_pixels);
-  core::ForChunks(pool_, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+  core::ForChunks(pool_, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
     for (size_t i = b; i < e; ++i) {
       const uint32_t l = result.labels.data[i];
       prev_labels_[i] = l <= n ? l : 0;

@@ -23,8 +23,6 @@ constexpr uint8_t kRefBackground = 32;
 constexpr uint8_t kOldSeen = 64;
 constexpr uint8_t kOldBackground = 128;
 constexpr uint8_t kRefClass = kRefSeen | kRefBackground;
-// Pixels per chunk of the per-pixel step on the pool (a tenth of a 640 x 480 frame).
-constexpr size_t kStepGrain = size_t{1} << 15;
 constexpr uint8_t kOldClass = kOldSeen | kOldBackground;
 
 // Whether a pixel of these flags has an arrival (SurfaceHistory::Arrival).
@@ -201,9 +199,9 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   // Every pixel on its own: in chunks on the pool, the counts added in chunk order.
   const bool changing = 4 * static_cast<size_t>(last_changed_) > num_pixels_;
   const auto step = changing ? StepWithoutBranches<true> : StepWithoutBranches<false>;
-  chunk_changed_.assign(core::ThreadPool::NumChunks(num_pixels_, kStepGrain), 0u);
-  core::ForChunks(pool_, num_pixels_, kStepGrain, [&](size_t b, size_t e) {
-    chunk_changed_[b / kStepGrain] =
+  chunk_changed_.assign(core::ThreadPool::NumChunks(num_pixels_, core::kPixelGrain), 0u);
+  core::ForChunks(pool_, num_pixels_, core::kPixelGrain, [&](size_t b, size_t e) {
+    chunk_changed_[b / core::kPixelGrain] =
         step(e - b, zs + b, band_, now, params_.confirm_frames, old_z_.data() + b,
              ref_z_.data() + b, cand_z_.data() + b, cand_since_.data() + b, cand_n_.data() + b,
              flags_.data() + b, todo_.data() + b);

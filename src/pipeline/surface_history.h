@@ -42,7 +42,7 @@ class SurfaceHistory {
  public:
   /// Its parameters are the `arrival_*` keys and min_pixels of `params` (0 arrival_gap_frames
   /// = off, no state kept) and the depth band of `band` (band_at_1m_m, min_band_m). `pool` (may
-  /// be null; it must outlive the history) runs the per-pixel step in chunks of rows.
+  /// be null; it must outlive the history) runs the per-pixel step in chunks of pixels.
   SurfaceHistory(const PartitionPriorParams& params, const TemporalFilterParams& band,
                  core::ThreadPool* pool = nullptr);
 

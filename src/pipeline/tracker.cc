@@ -15,8 +15,6 @@ namespace {
 // An association that passed its gate scores at least this much, so that a gated pair is
 // never confused with a forbidden one (score 0).
 constexpr double kMinScore = 1e-3;
-// Pixels per chunk of the per-pixel depth step on the pool (a tenth of a 640 x 480 frame).
-constexpr size_t kStepGrain = size_t{1} << 15;
 
 struct Box {
   core::Vec3f min, max;
@@ -186,7 +184,7 @@ struct Tracker::Impl {
 
   TrackerParams params;
   TemporalFilterParams band;
-  core::ThreadPool* pool;     // may be null: the per-pixel depth step in chunks
+  core::ThreadPool* pool;     // may be null: the per-pixel passes in chunks
   std::vector<Track> tracks;  // by increasing id
   int64_t next_id{1};
   bool have_prev{false};      // a previous frame exists (prev_seq valid)
@@ -271,7 +269,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     // Most pixels are background in both frames (core::ForEachLabelled skips them).
     if (with_depth) {
       depth_changed.resize(num_pixels);
-      core::ForChunks(pool, num_pixels, kStepGrain, [&](size_t b, size_t e) {
+      core::ForChunks(pool, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
         StepDepths(e - b, cloud.xyz.data() + b, params.surface_change_min_step_m, band,
                    compare_depth, prev_z.data() + b, depth_changed.data() + b);
       });
@@ -283,7 +281,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const bool contiguous = ids_contiguous;
     const size_t table = counts.size();
     overlap_tables.assign(table + changed_counts.size(), 0u);
-    core::CountInChunks(pool, num_pixels, kStepGrain, overlap_tables.size(), &chunk_tables,
+    core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
                         overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
                           uint32_t* both = tables;  // this chunk's overlap counts
                           uint32_t* changed = tables + table;

@@ -187,7 +187,7 @@ struct TrackingResult {
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).
 /// It is sequential and deterministic: the same frames give the same output, whatever the
-/// pool (which only runs the per-pixel depth step in chunks). Work buffers
+/// pool (which only runs the per-pixel depth step and overlap counts in chunks). Work buffers
 /// are kept, so steady-state frames do not allocate.
 /// Complexity: O(pixels + tracks x objects x min(tracks, objects)) per frame.
 class Tracker {

@@ -58,7 +58,7 @@ inline ScenarioRun RunScenario(const synth::SceneParams& scene, const synth::Seq
   Segmenter segmenter(SegmenterParams{}, pool);
   std::unique_ptr<TemporalDepthFilter> filter;  // the daemon's filter of a stream, when given
   if (temporal != nullptr) filter = std::make_unique<TemporalDepthFilter>(*temporal);
-  Tracker tracker(tracker_params, temporal != nullptr ? *temporal : TemporalFilterParams{});
+  Tracker tracker(tracker_params, temporal != nullptr ? *temporal : TemporalFilterParams{}, pool);
   // Flicker is counted once a change of the scene is two frames old (the default delay
   // before a new object is shown, TrackerParams{}.confirm_frames - 1), for every kind of id
   // and every tracker configuration alike.
