@@ -34,6 +34,14 @@ struct ObjectExtractor::Frame {
   Eigen::Vector3f hi{Eigen::Vector3f::Constant(std::numeric_limits<float>::lowest())};
 };
 
+// One object's gravity box: its points projected onto its plane, the hull's work.
+struct ObjectExtractor::BoxWork {
+  std::vector<float> projected;
+  std::vector<float> hull_scratch;
+  std::vector<std::pair<float, float>> hull_points;
+  std::vector<std::pair<float, float>> hull;
+};
+
 namespace {
 constexpr size_t kBandRows = 32;
 // Columns of the projection whose extreme points make up the hull (see objects.h).
@@ -254,7 +262,7 @@ void ObjectExtractor::AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba
 }
 
 void ObjectExtractor::SupportAndGravityBox(const std::vector<Plane>& planes, uint32_t k,
-                                           Object* o) {
+                                           BoxWork* work, Object* o) const {
   const core::Vec3f* points = points_.data() + object_first_[k];
   const size_t n = object_first_[k + 1] - object_first_[k];
   if (n == 0) return;
@@ -300,13 +308,15 @@ void ObjectExtractor::SupportAndGravityBox(const std::vector<Plane>& planes, uin
       std::abs(up.x()) < 0.9f ? Eigen::Vector3f::UnitX() : Eigen::Vector3f::UnitZ();
   const Eigen::Vector3f e1 = (ref - up.dot(ref) * up).normalized();
   const Eigen::Vector3f e2 = up.cross(e1).normalized();
-  projected_.resize(2 * n);
+  std::vector<float>& projected = work->projected;
+  projected.resize(2 * n);
   for (size_t i = 0; i < n; ++i) {
     const Eigen::Vector3f r = Eigen::Vector3f(points[i].x, points[i].y, points[i].z) - origin;
-    projected_[2 * i] = e1.dot(r);
-    projected_[2 * i + 1] = e2.dot(r);
+    projected[2 * i] = e1.dot(r);
+    projected[2 * i + 1] = e2.dot(r);
   }
-  const Rect2 rect = MinAreaRect(projected_.data(), n, &hull_points_, &hull_, &hull_scratch_);
+  const Rect2 rect =
+      MinAreaRect(projected.data(), n, &work->hull_points, &work->hull, &work->hull_scratch);
   // A deterministic sign: the first axis along +e1 (or +e2).
   float ax = rect.ax, ay = rect.ay;
   if (ax < 0.f || (ax == 0.f && ay < 0.f)) {
@@ -496,11 +506,19 @@ void ObjectExtractor::Compute(const core::PointCloudView& cloud, SegmentationRes
     o.pixel_min_v = a.vmin;
     o.pixel_max_u = a.umax;
     o.pixel_max_v = a.vmax;
-    SupportAndGravityBox(planes, k, &o);
     // Confidence: small objects and objects with few points relative to their box are less
     // certain; a simple monotone score in 0..1.
     o.confidence = std::clamp(static_cast<float>(a.n) / 2000.f, 0.2f, 1.f);
   }
+  // The support planes and gravity boxes: one object per task, each with its own buffers.
+  if (box_work_.size() < num_objects) box_work_.resize(num_objects);
+  core::ForChunks(pool, num_objects, 1, [&](size_t k0, size_t k1) {
+    for (size_t k = k0; k < k1; ++k) {
+      Object& o = (*objects)[k];
+      if (o.num_points == 0) continue;
+      SupportAndGravityBox(planes, static_cast<uint32_t>(k), &box_work_[k], &o);
+    }
+  });
 }
 
 }  // namespace clutterseg::pipeline

@@ -1,7 +1,6 @@
 #pragma once
 
 #include <cstdint>
-#include <utility>
 #include <vector>
 
 #include "clutterseg/core/point_cloud.h"
@@ -25,7 +24,8 @@ namespace clutterseg::pipeline {
 /// width along the first plane axis. Its height is the highest point above the plane.
 ///
 /// The pixel passes run over bands of rows on `pool` when one is given; the bands are fixed
-/// and summed in order, so the result does not depend on it.
+/// and summed in order, so the result does not depend on it. The support planes and gravity
+/// boxes run on it one object per task.
 ///
 /// Thread-safety: Compute is not reentrant (it keeps work buffers, so steady-state frames do
 /// not allocate); distinct instances are independent.
@@ -46,8 +46,11 @@ class ObjectExtractor {
   core::ThreadPool* const pool_;
   struct Accumulator;
   struct Frame;
-  // The support plane of objects[k] and its gravity-aligned box, from points_.
-  void SupportAndGravityBox(const std::vector<Plane>& planes, uint32_t k, Object* o);
+  struct BoxWork;
+  // The support plane of objects[k] and its gravity-aligned box, from points_ (`work`: that
+  // object's buffers; distinct objects may run at once).
+  void SupportAndGravityBox(const std::vector<Plane>& planes, uint32_t k, BoxWork* work,
+                            Object* o) const;
   static void AccumulateRun(const core::Vec3f* xyz, const uint32_t* rgba, int u0, int u1, int v,
                             Accumulator* out);
   std::vector<Accumulator> acc_;
@@ -59,11 +62,8 @@ class ObjectExtractor {
   std::vector<core::Vec3f> points_;
   std::vector<size_t> point_start_;
   std::vector<size_t> object_first_;
-  // The gravity box of one object: its points projected onto its plane, the hull's work.
-  std::vector<float> projected_;
-  std::vector<float> hull_scratch_;
-  std::vector<std::pair<float, float>> hull_points_;
-  std::vector<std::pair<float, float>> hull_;
+  // The gravity boxes' work buffers, one set per object (the boxes run on the pool).
+  std::vector<BoxWork> box_work_;
 };
 
 }  // namespace clutterseg::pipeline
