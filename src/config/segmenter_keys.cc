@@ -29,6 +29,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(partition, arrival_min_share),
       CLUTTERSEG_SEGMENTER_KEY(partition, arrival_moved_min_pixels),
       CLUTTERSEG_SEGMENTER_KEY(partition, arrival_rejoin_min_contact),
+      CLUTTERSEG_SEGMENTER_KEY(partition, arrival_join_min_contact),
 
       CLUTTERSEG_SEGMENTER_KEY(points, min_depth_m),
       CLUTTERSEG_SEGMENTER_KEY(points, max_depth_m),

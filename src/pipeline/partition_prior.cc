@@ -63,6 +63,7 @@ void PartitionPriorParams::ValidateOrThrow() const {
   check.InRange("arrival_moved_min_pixels", arrival_moved_min_pixels, 1, 1 << 24);
   check.InRange("arrival_rejoin_min_contact", arrival_rejoin_min_contact, 0, 1 << 24,
                 "(0 = never)");
+  check.InRange("arrival_join_min_contact", arrival_join_min_contact, 0, 1 << 24, "(0 = never)");
 }
 
 PartitionPrior::PartitionPrior(const PartitionPriorParams& params, const TemporalFilterParams& band,

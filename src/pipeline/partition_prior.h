@@ -57,6 +57,12 @@ struct PartitionPriorParams {
   /// within two depth bands): the piece of an older object that the segmentation gave to a
   /// newer neighbour goes back to the rest of its object. 0 = never.
   int arrival_rejoin_min_contact{3};
+  /// Segments most of whose pixels arrived in the same frame (not the first) and that touch in
+  /// at least this many pairs of pixels (image neighbours along a row or a column, or up to six
+  /// unlabelled pixels apart, at any depth) are one object: the pieces of one object put down
+  /// that the segmentation cut apart (a cup's inside and its outside wall). Two touching
+  /// objects put down in the same frame become one. 0 = never.
+  int arrival_join_min_contact{3};
 
   /// Whether a PartitionPrior with these parameters changes anything (hold or arrivals on).
   bool enabled() const { return hold_frames > 1 || arrival_gap_frames > 0; }

@@ -38,6 +38,15 @@ constexpr int kMovedRadius = 2;  // pixels around an uncovered pixel that are "n
 // Two pixels of neighbouring segments touch when their depths are within this many depth
 // bands of each other (a steep face seen at a grazing angle steps by more than one).
 constexpr float kRejoinBands = 2.f;
+// Pieces of one arrival touch when they are 4-neighbours in the image or at most this many
+// unlabelled pixels apart along a row or a column, at any depth: a cup's inside and its outside
+// wall are separated by the rim, seen edge-on, and its shadow (a few pixels) and a depth step
+// of up to the vessel's diameter.
+constexpr int kJoinGapPixels = 6;
+// Pieces of one arrival are of one object put down when most of their pixels arrived within
+// this many frames of each other: an object put down shows all of its faces in the frame it
+// comes to rest, while objects put down one after another arrive frames apart.
+constexpr int32_t kJoinMaxPeakFrames = 0;
 
 // The common steps of SurfaceHistory::Update, for every pixel at once: a pixel within the band
 // of its surface (settled) and, with kCandidates, a candidate begun or continued but not
@@ -142,6 +151,7 @@ SurfaceHistory::SurfaceHistory(const PartitionPriorParams& params, const Tempora
               params.min_pixels,
               params.arrival_moved_min_pixels,
               params.arrival_rejoin_min_contact,
+              params.arrival_join_min_contact,
               params.arrival_min_share},
       band_(band),
       pool_(pool) {}
@@ -368,6 +378,7 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   to_.resize(n + 1);
   lo_.assign(n + 1, -1);
   hi_.assign(n + 1, -1);
+  peak_.assign(n + 1, -1);
   part_.assign(n + 1, 0u);
   origin_.resize(n + 1);
   for (uint32_t r = 0; r <= n; ++r) origin_[r] = r;
@@ -397,6 +408,7 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     group_px.clear();
     group_lo_.clear();
     group_hi_.clear();
+    group_peak_.clear();
     to.assign(es.size(), 0u);
     int32_t last = 0;
     for (size_t k = 0; k < es.size(); ++k) {
@@ -405,11 +417,13 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
         group_px.push_back(0);
         group_lo_.push_back(es[k].birth);
         group_hi_.push_back(es[k].birth);
+        group_peak_.push_back(k);
       }
       last = es[k].birth;
       to[k] = static_cast<uint32_t>(group_px.size());  // 1-based group
       group_px.back() += es[k].count;
       group_hi_.back() = es[k].birth;
+      if (es[k].count > es[group_peak_.back()].count) group_peak_.back() = k;
     }
     int groups = 0;
     size_t largest = 0;
@@ -420,6 +434,7 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     if (!group_px.empty()) {  // the segment's own arrival, for parts that may join it
       lo_[r] = group_lo_[largest];
       hi_[r] = group_hi_[largest];
+      peak_[r] = es[group_peak_[largest]].birth;
     }
     if (groups < 2) {
       to.clear();
@@ -437,11 +452,13 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
       if (l >= lo_.size()) {
         lo_.resize(l + 1, -1);
         hi_.resize(l + 1, -1);
+        peak_.resize(l + 1, -1);
         part_.resize(l + 1, 0u);
         origin_.resize(l + 1, 0u);
       }
       lo_[l] = group_lo_[g];
       hi_[l] = group_hi_[g];
+      peak_[l] = es[group_peak_[g]].birth;
       part_[l] = 1;
       origin_[l] = r;
     }
@@ -449,7 +466,15 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     ++num_split_;
     any = true;
   }
-  if (!any) return n;
+  if (!any) {
+    if (!JoinCandidates(n)) return n;
+    out_.assign(labels, labels + num_pixels_);
+    Rejoin(cloud, n);
+    if (num_joined_ == 0) return n;
+    changed_ = true;
+    std::copy(out_.begin(), out_.end(), labels);
+    return n;
+  }
   changed_ = true;
 
   out_.resize(num_pixels_);
@@ -474,40 +499,79 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   return next - 1;
 }
 
+bool SurfaceHistory::ArrivedTogether(uint32_t a, uint32_t b) const {
+  return lo_[a] > 0 && lo_[b] > 0 && std::abs(peak_[a] - peak_[b]) <= kJoinMaxPeakFrames;
+}
+
+bool SurfaceHistory::JoinCandidates(uint32_t n) const {
+  if (params_.join_min_contact <= 0) return false;
+  for (uint32_t a = 1; a <= n; ++a) {
+    for (uint32_t b = a + 1; b <= n; ++b) {
+      if (ArrivedTogether(a, b)) return true;
+    }
+  }
+  return false;
+}
+
 void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labels) {
-  if (params_.rejoin_min_contact <= 0) return;
+  const bool join = params_.join_min_contact > 0;
+  if (params_.rejoin_min_contact <= 0 && !join) return;
   const int w = cloud.width, h = cloud.height;
-  // Contacts between a part and a segment it was not cut from: pairs of 4-neighbour pixels,
-  // or of pixels one unlabelled pixel apart, whose depths lie within kRejoinBands bands.
+  // Contacts between a part and a segment it was not cut from (with the join, between any two
+  // segments not cut apart): pairs of 4-neighbour pixels, or of pixels one unlabelled pixel
+  // apart, whose depths lie within kRejoinBands bands (`count`, for the parts), and with the
+  // join also pairs up to kJoinGapPixels unlabelled pixels apart at any depth (`wide`).
   contacts_.clear();
+  // The segments that arrived together with another (those the join may join).
+  together_.assign(num_labels + 1, 0u);
+  for (uint32_t a = 1; join && a <= num_labels; ++a) {
+    for (uint32_t b = a + 1; b <= num_labels; ++b) {
+      if (ArrivedTogether(a, b)) together_[a] = together_[b] = 1;
+    }
+  }
+  const bool any_part =
+      std::any_of(part_.begin(), part_.begin() + num_labels + 1, [](uint8_t p) { return p != 0; });
   const size_t row = static_cast<size_t>(w);
-  const auto touch = [&](size_t i, size_t j) {
+  const auto touch = [&](size_t i, size_t j, bool adjacent) {
     uint32_t a = out_[i], b = out_[j];
-    if (a == b || a == 0 || b == 0 || a > num_labels || b > num_labels) return;
-    if (!part_[a] && !part_[b]) return;
+    if (a == b || a > num_labels || b > num_labels) return;
+    const bool parts = part_[a] || part_[b], joins = together_[a] && together_[b];
+    if (!parts && !joins) return;
     if (origin_[a] == origin_[b]) return;  // cut apart by their arrivals
     const float za = cloud.xyz[i].z, zb = cloud.xyz[j].z;
-    if (!(za > 0.f) || !(zb > 0.f) || std::abs(za - zb) > kRejoinBands * band_.BandAt(za)) {
-      return;
-    }
+    const bool near = parts && adjacent && za > 0.f && zb > 0.f &&
+                      std::abs(za - zb) <= kRejoinBands * band_.BandAt(za);
+    if (!near && !joins) return;
     if (a > b) std::swap(a, b);
     for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
       if (it->a == a && it->b == b) {
-        ++it->count;
+        it->count += near ? 1u : 0u;
+        it->wide += joins ? 1u : 0u;
         return;
       }
     }
-    contacts_.push_back(Contact{a, b, 1});
+    contacts_.push_back(Contact{a, b, near ? 1u : 0u, joins ? 1u : 0u});
   };
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
-      if (out_[i] == 0) continue;
-      // Across one unlabelled pixel too (a hole or an edge pixel between two segments).
-      if (u + 1 < w) touch(i, i + 1);
-      if (u + 2 < w && out_[i + 1] == 0) touch(i, i + 2);
-      if (v + 1 < h) touch(i, i + row);
-      if (v + 2 < h && out_[i + row] == 0) touch(i, i + 2 * row);
+      const uint32_t l = out_[i];
+      if (l == 0 || l > num_labels || (!any_part && !together_[l])) continue;
+      // Across one unlabelled pixel (a hole or an edge pixel between two segments), and for the
+      // join up to kJoinGapPixels.
+      const int reach = (together_[l] ? kJoinGapPixels : 1) + 1;
+      for (int k = 1; k <= reach && u + k < w; ++k) {
+        const size_t j = i + static_cast<size_t>(k);
+        if (out_[j] == 0) continue;
+        touch(i, j, k <= 2);
+        break;
+      }
+      for (int k = 1; k <= reach && v + k < h; ++k) {
+        const size_t j = i + static_cast<size_t>(k) * row;
+        if (out_[j] == 0) continue;
+        touch(i, j, k <= 2);
+        break;
+      }
     }
   }
   if (contacts_.empty()) return;
@@ -521,7 +585,7 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
     return lo_[a] > 0 && lo_[b] > 0 && lo_[b] - hi_[a] <= params_.gap_frames &&
            lo_[a] - hi_[b] <= params_.gap_frames;
   };
-  for (uint32_t p = 1; p <= num_labels; ++p) {
+  for (uint32_t p = 1; p <= num_labels && params_.rejoin_min_contact > 0; ++p) {
     if (!part_[p]) continue;
     uint32_t best = 0, best_count = 0;
     for (const Contact& c : contacts_) {
@@ -538,6 +602,18 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
     if (rp == rt) continue;
     parent_[std::max(rp, rt)] = std::min(rp, rt);
     ++num_joined_;
+  }
+  // Pieces of one arrival (the segmentation cut one object put down into several): every pair
+  // touching enough joins, whether split by arrival or not.
+  if (join) {
+    const auto min_join = static_cast<uint32_t>(params_.join_min_contact);
+    for (const Contact& c : contacts_) {
+      if (c.wide < min_join || !ArrivedTogether(c.a, c.b)) continue;
+      const uint32_t ra = find(c.a), rb = find(c.b);
+      if (ra == rb) continue;
+      parent_[std::max(ra, rb)] = std::min(ra, rb);
+      ++num_joined_;
+    }
   }
   if (num_joined_ == 0) return;
   for (uint32_t& l : out_) {

@@ -86,9 +86,15 @@ class SurfaceHistory {
   // Joins the parts cut off (labels in out_ up to `num_labels`) to the neighbouring segment of
   // their arrival (arrival_rejoin_min_contact).
   void Rejoin(const core::PointCloudView& cloud, uint32_t num_labels);
+  // Whether most pixels of segments a and b arrived (not in the first frame) within
+  // kJoinMaxPeakFrames of each other.
+  bool ArrivedTogether(uint32_t a, uint32_t b) const;
+  // Whether two of the n segments arrived together (arrival_join_min_contact on).
+  bool JoinCandidates(uint32_t n) const;
 
   struct Params {  // copied from PartitionPriorParams
-    int gap_frames, confirm_frames, min_pixels, moved_min_pixels, rejoin_min_contact;
+    int gap_frames, confirm_frames, min_pixels, moved_min_pixels, rejoin_min_contact,
+        join_min_contact;
     float min_share;
   };
   Params params_;
@@ -117,16 +123,20 @@ class SurfaceHistory {
   std::vector<uint32_t> group_px_, label_of_;
   std::vector<std::vector<uint32_t>> to_;  // per segment, per entry: output label (0 = fill)
   std::vector<uint32_t> out_, pending_, pending_next_, taken_;
-  // Per output label: the arrival range of its (largest) group, -1 = none; the segment it was
-  // cut from (itself when not split); whether it is a part of a split segment.
-  std::vector<int32_t> lo_, hi_;
+  // Per output label: the arrival range of its (largest) group and the arrival of most of that
+  // group's pixels, -1 = none; the segment it was cut from (itself when not split); whether it
+  // is a part of a split segment.
+  std::vector<int32_t> lo_, hi_, peak_;
   std::vector<uint32_t> origin_, parent_;
-  std::vector<uint8_t> part_;
+  std::vector<uint8_t> part_, together_;
   struct Contact {
-    uint32_t a, b, count;
+    uint32_t a, b;
+    uint32_t count;  // within reach of a part's rejoin (Rejoin)
+    uint32_t wide;   // within reach of the join of one arrival's pieces
   };
   std::vector<Contact> contacts_;
   std::vector<int32_t> group_lo_, group_hi_;
+  std::vector<size_t> group_peak_;  // per group, the index in entries_ of its largest arrival
 };
 
 /// Gives each pixel i of `pending` (out[i] == 0) the output label of a 4-neighbour with the

@@ -400,6 +400,7 @@ TEST(PartitionPrior, TheSurfacesAreFollowedInTheSceneDepthNotTheSegmentedCloud) 
 TEST(PartitionPrior, APieceOfAnOlderObjectGivenToANewerNeighbourGoesBackToIt) {
   PartitionPriorParams alone = Arrival();
   alone.arrival_rejoin_min_contact = 0;
+  alone.arrival_join_min_contact = 0;  // which would join the columns to A as well
   PartitionPrior prior(Arrival(), TemporalFilterParams{});
   PartitionPrior without(alone, TemporalFilterParams{});
   const auto depth = [](int64_t seq) {
@@ -435,6 +436,57 @@ TEST(PartitionPrior, APieceOfAnOlderObjectGivenToANewerNeighbourGoesBackToIt) {
   EXPECT_TRUE(joined);
 }
 
+// A cup is put down at frame 10: the segmentation gives its inside (rows 10-19, 8 cm behind)
+// and its outside wall (rows 23-39) as two segments, three unlabelled rows of rim and shadow
+// apart. The pieces arrived together, so they are one object; with the join off they stay two.
+// Box B, put down flush beside the wall two frames later (within arrival_gap_frames, one
+// arrival group with the cup) and touching it, did not arrive in the cup's frame: it is never
+// joined, nor are the first frame's surfaces (the box D, there from the start, touching the
+// outside wall's other side).
+TEST(PartitionPrior, PiecesOfOneObjectPutDownTogetherAreOneObject) {
+  PartitionPriorParams apart = Arrival();
+  apart.arrival_join_min_contact = 0;
+  PartitionPriorParams joining = Arrival();
+  joining.arrival_join_min_contact = 3;
+  PartitionPrior prior(joining, TemporalFilterParams{});
+  PartitionPrior without(apart, TemporalFilterParams{});
+  const auto depth = [](int64_t seq) {
+    return SceneOf([seq](int u, int v) {
+      if (u >= 10 && u < 20 && v >= 23 && v < 40) return 0.9f;  // D, from the start
+      if (v >= 10 && v < 40 && u >= 20 && u < 40 && seq >= 10) {
+        if (v < 20) return 0.98f;  // the inside
+        if (v < 23) return NAN;    // rim and shadow: no depth
+        return 0.9f;               // the outside wall
+      }
+      if (v >= 23 && v < 40 && u >= 40 && u < 60 && seq >= 12) return 0.9f;  // B
+      return 1.0f;
+    });
+  };
+  const auto segmented = [](int64_t seq) {
+    return Segmentation([seq](int u, int v) {
+      if (u >= 10 && u < 20 && v >= 23 && v < 40) return 1u;
+      if (seq < 10 || v < 10 || v >= 40) return 0u;
+      if (u >= 20 && u < 40) return v < 20 ? 2u : v < 23 ? 0u : 3u;
+      return seq >= 12 && v >= 23 && u >= 40 && u < 60 ? 4u : 0u;
+    });
+  };
+  bool joined = false;
+  for (int64_t seq = 1; seq < 80; ++seq) {
+    const core::PointCloud cloud = depth(seq);
+    SegmentationResult r = segmented(seq), w = segmented(seq);
+    prior.Apply(cloud, seq, &r);
+    without.Apply(cloud, seq, &w);
+    joined = joined || prior.counts().arrival_joins > 0;
+    EXPECT_EQ(w.objects.size(), seq < 10 ? 1u : seq < 12 ? 3u : 4u) << seq;
+    if (seq < 25) continue;  // confirmed and no longer held
+    ASSERT_EQ(r.objects.size(), 3u) << seq;
+    EXPECT_EQ(At(r, 30, 15), At(r, 30, 30)) << seq;  // the cup is one object
+    EXPECT_NE(At(r, 30, 30), At(r, 15, 30)) << seq;  // not joined with D
+    EXPECT_NE(At(r, 30, 30), At(r, 50, 30)) << seq;  // nor with B
+  }
+  EXPECT_TRUE(joined);
+}
+
 TEST(PartitionPrior, RefusesBadParameters) {
   const std::function<void(PartitionPriorParams*)> bad[] = {
       [](PartitionPriorParams* p) { p->hold_frames = 0; },
@@ -445,6 +497,7 @@ TEST(PartitionPrior, RefusesBadParameters) {
       [](PartitionPriorParams* p) { p->arrival_min_share = 0.f; },
       [](PartitionPriorParams* p) { p->arrival_moved_min_pixels = 0; },
       [](PartitionPriorParams* p) { p->arrival_rejoin_min_contact = -1; },
+      [](PartitionPriorParams* p) { p->arrival_join_min_contact = -1; },
   };
   for (size_t k = 0; k < std::size(bad); ++k) {
     PartitionPriorParams p;
