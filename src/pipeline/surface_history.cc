@@ -47,6 +47,10 @@ constexpr int kJoinGapPixels = 6;
 // this many frames of each other: an object put down shows all of its faces in the frame it
 // comes to rest, while objects put down one after another arrive frames apart.
 constexpr int32_t kJoinMaxPeakFrames = 0;
+// A frame in which more than a quarter of the pixels left their surface is a new view (the
+// camera moved): what arrived then arrived with everything in view. The last this many are
+// remembered.
+constexpr size_t kMaxNewViews = 1024;
 
 // The common steps of SurfaceHistory::Update, for every pixel at once: a pixel within the band
 // of its surface (settled) and, with kCandidates, a candidate begun or continued but not
@@ -172,7 +176,8 @@ size_t SurfaceHistory::memory_bytes() const {
          (ref_birth_.capacity() + ref_since_.capacity() + old_birth_.capacity() +
           cand_since_.capacity()) *
              sizeof(int32_t) +
-         cand_n_.capacity() + flags_.capacity() + z_.capacity() * sizeof(float) + todo_.capacity();
+         cand_n_.capacity() + flags_.capacity() + z_.capacity() * sizeof(float) + todo_.capacity() +
+         new_views_.capacity() * sizeof(int32_t);
 }
 
 void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const float> scene_z,
@@ -190,6 +195,8 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
     cand_since_.assign(num_pixels_, 0);
     cand_n_.assign(num_pixels_, 0);
     flags_.assign(num_pixels_, 0);
+    new_views_.clear();
+    new_views_dropped_ = false;
   }
   uncovered_.clear();
   uncovered_birth_.clear();
@@ -218,6 +225,13 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
   });
   last_changed_ = 0;
   for (const uint32_t c : chunk_changed_) last_changed_ += c;
+  if (4 * static_cast<size_t>(last_changed_) > num_pixels_) {
+    if (new_views_.size() == kMaxNewViews) {
+      new_views_.erase(new_views_.begin());
+      new_views_dropped_ = true;
+    }
+    new_views_.push_back(now);
+  }
   const int confirm = params_.confirm_frames;
   for (size_t i = 0; i < num_pixels_; ++i) {
     if (i % 8 == 0 && i + 8 <= num_pixels_) {  // skip eight settled pixels at once
@@ -499,8 +513,14 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   return next - 1;
 }
 
+bool SurfaceHistory::NewView(int32_t frame) const {
+  if (new_views_dropped_ && (new_views_.empty() || frame < new_views_.front())) return true;
+  return std::binary_search(new_views_.begin(), new_views_.end(), frame);
+}
+
 bool SurfaceHistory::ArrivedTogether(uint32_t a, uint32_t b) const {
-  return lo_[a] > 0 && lo_[b] > 0 && std::abs(peak_[a] - peak_[b]) <= kJoinMaxPeakFrames;
+  return lo_[a] > 0 && lo_[b] > 0 && std::abs(peak_[a] - peak_[b]) <= kJoinMaxPeakFrames &&
+         !NewView(peak_[a]) && !NewView(peak_[b]);
 }
 
 bool SurfaceHistory::JoinCandidates(uint32_t n) const {

@@ -86,8 +86,10 @@ class SurfaceHistory {
   // Joins the parts cut off (labels in out_ up to `num_labels`) to the neighbouring segment of
   // their arrival (arrival_rejoin_min_contact).
   void Rejoin(const core::PointCloudView& cloud, uint32_t num_labels);
-  // Whether most pixels of segments a and b arrived (not in the first frame) within
-  // kJoinMaxPeakFrames of each other.
+  // Whether `frame` was a new view (kMaxNewViews; also when it is older than those kept).
+  bool NewView(int32_t frame) const;
+  // Whether most pixels of segments a and b arrived (not in the first frame, nor in a new view)
+  // within kJoinMaxPeakFrames of each other.
   bool ArrivedTogether(uint32_t a, uint32_t b) const;
   // Whether two of the n segments arrived together (arrival_join_min_contact on).
   bool JoinCandidates(uint32_t n) const;
@@ -109,6 +111,10 @@ class SurfaceHistory {
   std::vector<float> ref_z_, old_z_, cand_z_;
   std::vector<int32_t> ref_birth_, ref_since_, old_birth_, cand_since_;
   std::vector<uint8_t> cand_n_, flags_;
+  // The frames in which most of the image left its surface (a new view), increasing, the last
+  // kMaxNewViews of them; whether older ones were dropped.
+  std::vector<int32_t> new_views_;
+  bool new_views_dropped_{false};
 
   // Per frame.
   std::vector<float> z_;                 // the cloud's depths, when no scene depth is given

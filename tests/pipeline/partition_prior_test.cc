@@ -487,6 +487,57 @@ TEST(PartitionPrior, PiecesOfOneObjectPutDownTogetherAreOneObject) {
   EXPECT_TRUE(joined);
 }
 
+// The whole scene changes from frame 0 to frame 1 (a camera turned, a synthetic source): a
+// new view. The only arrivals known in frame 1 are those of the pixels that had no depth in
+// frame 0, measured for the first time (156 of each segment's 600); they arrived with
+// everything else in view, so the two touching segments are not joined. (A box C stands in
+// both frames, so that frame 0 has a segment.)
+TEST(PartitionPrior, SegmentsOfANewViewAreNotJoined) {
+  PartitionPriorParams joining = Arrival();
+  joining.arrival_join_min_contact = 3;
+  joining.hold_frames = 1;  // this frame's partition, not held
+  PartitionPrior prior(joining, TemporalFilterParams{});
+  for (int64_t seq = 0; seq < 2; ++seq) {
+    const core::PointCloud cloud = SceneOf([seq](int u, int v) {
+      if (u >= 60 && u < 70 && v >= 45 && v < 55) return 0.9f;  // C
+      if (seq == 0) return u >= 24 && u < 36 && v >= 12 && v < 38 ? NAN : 1.0f;
+      return v >= 10 && v < 40 && u >= 10 && u < 50 ? 0.8f : 1.1f;  // the table too
+    });
+    SegmentationResult r = Segmentation([seq](int u, int v) {
+      if (u >= 60 && u < 70 && v >= 45 && v < 55) return seq == 0 ? 1u : 3u;
+      if (seq == 0 || v < 10 || v >= 40 || u < 10 || u >= 50) return 0u;
+      return u < 30 ? 1u : 2u;
+    });
+    prior.Apply(cloud, seq, &r);
+    if (seq == 1) {
+      ASSERT_EQ(r.objects.size(), 3u);
+      EXPECT_NE(At(r, 20, 25), At(r, 40, 25));
+    }
+  }
+}
+
+// Boxes A and B stand touching from the first frame; at frame 1 the camera is moved 5 cm
+// towards them, and everything in view arrives anew at once (confirmed at frame 5). A and B
+// arrived in a new view: they are not joined.
+TEST(PartitionPrior, TouchingObjectsSeenAgainAfterTheCameraMovedAreNotJoined) {
+  PartitionPriorParams joining = Arrival();
+  joining.arrival_join_min_contact = 3;
+  PartitionPrior prior(joining, TemporalFilterParams{});
+  for (int64_t seq = 0; seq < 30; ++seq) {
+    const float moved = seq == 0 ? 0.f : 0.05f;
+    const core::PointCloud cloud = SceneOf([moved](int u, int v) {
+      return (v >= 10 && v < 40 && u >= 10 && u < 50 ? 0.9f : 1.0f) - moved;
+    });
+    SegmentationResult r = Segmentation([](int u, int v) {
+      if (v < 10 || v >= 40 || u < 10 || u >= 50) return 0u;
+      return u < 30 ? 1u : 2u;
+    });
+    prior.Apply(cloud, seq, &r);
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_NE(At(r, 20, 25), At(r, 40, 25)) << seq;
+  }
+}
+
 TEST(PartitionPrior, RefusesBadParameters) {
   const std::function<void(PartitionPriorParams*)> bad[] = {
       [](PartitionPriorParams* p) { p->hold_frames = 0; },
