@@ -480,13 +480,10 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     ++num_split_;
     any = true;
   }
-  if (!any) {
-    if (!JoinCandidates(n)) return n;
-    out_.assign(labels, labels + num_pixels_);
-    Rejoin(cloud, n);
-    if (num_joined_ == 0) return n;
-    changed_ = true;
-    std::copy(out_.begin(), out_.end(), labels);
+  if (!any) {  // nothing split: only the join of one arrival's pieces may change the labels
+    if (!MarkTogether(n)) return n;
+    Rejoin(cloud, n, labels);
+    changed_ = num_joined_ > 0;
     return n;
   }
   changed_ = true;
@@ -508,7 +505,8 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
     if (o == 0) pending_.push_back(static_cast<uint32_t>(i));
   }
   FillFromNeighbours(labels, w, h, &pending_, &pending_next_, &taken_, out_.data());
-  Rejoin(cloud, next - 1);
+  MarkTogether(next - 1);
+  Rejoin(cloud, next - 1, out_.data());
   std::copy(out_.begin(), out_.end(), labels);
   return next - 1;
 }
@@ -523,17 +521,21 @@ bool SurfaceHistory::ArrivedTogether(uint32_t a, uint32_t b) const {
          !NewView(peak_[a]) && !NewView(peak_[b]);
 }
 
-bool SurfaceHistory::JoinCandidates(uint32_t n) const {
+bool SurfaceHistory::MarkTogether(uint32_t num_labels) {
+  together_.assign(num_labels + 1, 0u);
   if (params_.join_min_contact <= 0) return false;
-  for (uint32_t a = 1; a <= n; ++a) {
-    for (uint32_t b = a + 1; b <= n; ++b) {
-      if (ArrivedTogether(a, b)) return true;
+  bool any = false;
+  for (uint32_t a = 1; a <= num_labels; ++a) {
+    for (uint32_t b = a + 1; b <= num_labels; ++b) {
+      if (!ArrivedTogether(a, b)) continue;
+      together_[a] = together_[b] = 1;
+      any = true;
     }
   }
-  return false;
+  return any;
 }
 
-void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labels) {
+void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labels, uint32_t* out) {
   const bool join = params_.join_min_contact > 0;
   if (params_.rejoin_min_contact <= 0 && !join) return;
   const int w = cloud.width, h = cloud.height;
@@ -542,18 +544,11 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
   // apart, whose depths lie within kRejoinBands bands (`count`, for the parts), and with the
   // join also pairs up to kJoinGapPixels unlabelled pixels apart at any depth (`wide`).
   contacts_.clear();
-  // The segments that arrived together with another (those the join may join).
-  together_.assign(num_labels + 1, 0u);
-  for (uint32_t a = 1; join && a <= num_labels; ++a) {
-    for (uint32_t b = a + 1; b <= num_labels; ++b) {
-      if (ArrivedTogether(a, b)) together_[a] = together_[b] = 1;
-    }
-  }
   const bool any_part =
       std::any_of(part_.begin(), part_.begin() + num_labels + 1, [](uint8_t p) { return p != 0; });
   const size_t row = static_cast<size_t>(w);
   const auto touch = [&](size_t i, size_t j, bool adjacent) {
-    uint32_t a = out_[i], b = out_[j];
+    uint32_t a = out[i], b = out[j];
     if (a == b || a > num_labels || b > num_labels) return;
     const bool parts = part_[a] || part_[b], joins = together_[a] && together_[b];
     if (!parts && !joins) return;
@@ -575,20 +570,20 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
       const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
-      const uint32_t l = out_[i];
+      const uint32_t l = out[i];
       if (l == 0 || l > num_labels || (!any_part && !together_[l])) continue;
       // Across one unlabelled pixel (a hole or an edge pixel between two segments), and for the
       // join up to kJoinGapPixels.
       const int reach = (together_[l] ? kJoinGapPixels : 1) + 1;
       for (int k = 1; k <= reach && u + k < w; ++k) {
         const size_t j = i + static_cast<size_t>(k);
-        if (out_[j] == 0) continue;
+        if (out[j] == 0) continue;
         touch(i, j, k <= 2);
         break;
       }
       for (int k = 1; k <= reach && v + k < h; ++k) {
         const size_t j = i + static_cast<size_t>(k) * row;
-        if (out_[j] == 0) continue;
+        if (out[j] == 0) continue;
         touch(i, j, k <= 2);
         break;
       }
@@ -636,8 +631,8 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
     }
   }
   if (num_joined_ == 0) return;
-  for (uint32_t& l : out_) {
-    if (l != 0 && l <= num_labels) l = find(l);
+  for (size_t i = 0; i < num_pixels_; ++i) {
+    if (out[i] != 0 && out[i] <= num_labels) out[i] = find(out[i]);
   }
 }
 

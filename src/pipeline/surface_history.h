@@ -83,16 +83,18 @@ class SurfaceHistory {
   int32_t Arrival(size_t i) const;
   bool changed_{false};
   void ApplyMoves(const uint32_t* labels, uint32_t n, int w, int h);
-  // Joins the parts cut off (labels in out_ up to `num_labels`) to the neighbouring segment of
-  // their arrival (arrival_rejoin_min_contact).
-  void Rejoin(const core::PointCloudView& cloud, uint32_t num_labels);
+  // Joins, in the labels `out` (one per pixel, segments up to `num_labels`), the parts cut off
+  // to the neighbouring segment of their arrival (arrival_rejoin_min_contact), and the
+  // segments that arrived together (MarkTogether) and touch (arrival_join_min_contact).
+  void Rejoin(const core::PointCloudView& cloud, uint32_t num_labels, uint32_t* out);
   // Whether `frame` was a new view (kMaxNewViews; also when it is older than those kept).
   bool NewView(int32_t frame) const;
   // Whether most pixels of segments a and b arrived (not in the first frame, nor in a new view)
   // within kJoinMaxPeakFrames of each other.
   bool ArrivedTogether(uint32_t a, uint32_t b) const;
-  // Whether two of the n segments arrived together (arrival_join_min_contact on).
-  bool JoinCandidates(uint32_t n) const;
+  // Marks in together_ the segments up to `num_labels` that arrived together with another
+  // (none with arrival_join_min_contact 0); whether any did.
+  bool MarkTogether(uint32_t num_labels);
 
   struct Params {  // copied from PartitionPriorParams
     int gap_frames, confirm_frames, min_pixels, moved_min_pixels, rejoin_min_contact,

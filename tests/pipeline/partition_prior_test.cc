@@ -8,6 +8,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <utility>
 
 #include <gtest/gtest.h>
 
@@ -65,6 +66,19 @@ SegmentationResult Merged() {
 }
 uint32_t At(const SegmentationResult& r, int u, int v) {
   return r.labels.data[static_cast<size_t>(v * kW + u)];
+}
+
+// One frame through a prior and through the same prior with a rule off, each on its own copy
+// of the segmentation: {with the rule, without}.
+std::pair<SegmentationResult, SegmentationResult> ApplyBoth(PartitionPrior* prior,
+                                                            PartitionPrior* without,
+                                                            const core::PointCloud& cloud,
+                                                            int64_t seq,
+                                                            const SegmentationResult& segmented) {
+  SegmentationResult r = segmented, w = segmented;
+  prior->Apply(cloud, seq, &r);
+  without->Apply(cloud, seq, &w);
+  return {std::move(r), std::move(w)};
 }
 
 PartitionPriorParams Hold(int frames) {
@@ -331,10 +345,7 @@ TEST(PartitionPrior, APushedObjectStaysWhole) {
   bool moved = false, cut_without = false;
   for (int64_t seq = 1; seq < 60; ++seq) {
     const int left = seq < 30 ? 10 : 14;
-    const core::PointCloud cloud = SceneOf(box_at(left));
-    SegmentationResult r = segment_at(left), w = segment_at(left);
-    prior.Apply(cloud, seq, &r);
-    without.Apply(cloud, seq, &w);
+    const auto [r, w] = ApplyBoth(&prior, &without, SceneOf(box_at(left)), seq, segment_at(left));
     moved = moved || prior.counts().arrival_moves > 0;
     cut_without = cut_without || w.objects.size() > 1;
     ASSERT_EQ(r.objects.size(), 1u) << seq;
@@ -420,10 +431,7 @@ TEST(PartitionPrior, APieceOfAnOlderObjectGivenToANewerNeighbourGoesBackToIt) {
   };
   bool joined = false;
   for (int64_t seq = 1; seq < 80; ++seq) {
-    const core::PointCloud cloud = depth(seq);
-    SegmentationResult r = segmented(seq), w = segmented(seq);
-    prior.Apply(cloud, seq, &r);
-    without.Apply(cloud, seq, &w);
+    const auto [r, w] = ApplyBoth(&prior, &without, depth(seq), seq, segmented(seq));
     joined = joined || prior.counts().arrival_joins > 0;
     if (seq < 60) continue;  // B confirmed and its partition no longer held
     ASSERT_EQ(r.objects.size(), 2u) << seq;
@@ -472,10 +480,7 @@ TEST(PartitionPrior, PiecesOfOneObjectPutDownTogetherAreOneObject) {
   };
   bool joined = false;
   for (int64_t seq = 1; seq < 80; ++seq) {
-    const core::PointCloud cloud = depth(seq);
-    SegmentationResult r = segmented(seq), w = segmented(seq);
-    prior.Apply(cloud, seq, &r);
-    without.Apply(cloud, seq, &w);
+    const auto [r, w] = ApplyBoth(&prior, &without, depth(seq), seq, segmented(seq));
     joined = joined || prior.counts().arrival_joins > 0;
     EXPECT_EQ(w.objects.size(), seq < 10 ? 1u : seq < 12 ? 3u : 4u) << seq;
     if (seq < 25) continue;  // confirmed and no longer held
