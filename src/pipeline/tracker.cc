@@ -20,6 +20,12 @@ struct Box {
   core::Vec3f min, max;
 };
 
+// The share of a track's own view that a part of a split must hold to keep the track by lying
+// nearest its own centroid (TrackerParams::split_own_margin_m): an object put down on a track
+// may hide more than half of it, and what is left of it keeps the track; a sliver between two
+// halves of an object cut by one put down across it does not.
+constexpr float kOwnPartMinShare = 0.25f;
+
 float Distance(const core::Vec3f& a, const core::Vec3f& b) {
   const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
   return std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -27,16 +33,19 @@ float Distance(const core::Vec3f& a, const core::Vec3f& b) {
 
 float Diagonal(const Box& b) { return Distance(b.min, b.max); }
 
-// Whether each pixel's depth moved by at least max(min_step, the band at its previous depth)
-// since `prev_z` (false where either is NaN) into `changed` when `compare`, and `prev_z` set to
-// this frame's depth. Without branches and with restrict pointers: the compiler vectorises it.
+// Per pixel into `changed` when `compare`: bit 0 set when its depth moved by at least
+// max(min_step, the band at its previous depth) since `prev_z`, bit 1 when it came nearer by
+// that much (a surface in front of what was there); 0 where either depth is NaN. `prev_z` is set
+// to this frame's depth. Without branches and with restrict pointers: the compiler vectorises it.
 void StepDepths(size_t num, const core::Vec3f* __restrict xyz, float min_step,
                 const TemporalFilterParams band, bool compare, float* __restrict prev_z,
                 uint8_t* __restrict changed) {
   if (compare) {
     for (size_t i = 0; i < num; ++i) {
       const float z = xyz[i].z, before = prev_z[i];
-      changed[i] = std::fabs(z - before) >= std::max(min_step, band.BandAt(before));
+      const float step = std::max(min_step, band.BandAt(before)), nearer = before - z;
+      const int32_t bits = (std::fabs(nearer) >= step) | ((nearer >= step) << 1);
+      changed[i] = static_cast<uint8_t>(bits);
       prev_z[i] = z;
     }
   } else {
@@ -132,9 +141,10 @@ struct Tracker::Impl {
     // (metres), increasing pixel order (RememberSurface). Empty without depth.
     std::vector<uint32_t> remembered_pixels;
     std::vector<float> remembered_z;
-    core::Vec3f own_centroid;  // of its last view that held no other track
-    uint32_t own_points{0};    // of that view
-    int64_t joined_seq{-1};    // the last frame a new surface joined its view (-1: never)
+    core::Vec3f own_centroid;    // of its last view that held no other track
+    uint32_t own_points{0};      // of that view
+    int64_t joined_seq{-1};      // the last frame a new surface joined its view (-1: never)
+    uint32_t stacked_points{0};  // of that view, the pixels that came in front (0: none)
   };
 
   Impl(const TrackerParams& p, const TemporalFilterParams& b, core::ThreadPool* q)
@@ -202,8 +212,10 @@ struct Tracker::Impl {
   // Of those, the pixels whose surface changed (a surface in front, or taken away).
   std::vector<uint32_t> changed_counts;
   std::vector<uint32_t> overlap_tables, chunk_tables;  // counts and changed_counts, counted
-  std::vector<uint8_t> depth_changed;  // per pixel: its depth moved since the previous frame
+  // Per pixel: its depth moved since the previous frame (bit 0), nearer (bit 1).
+  std::vector<uint8_t> depth_changed;
   std::vector<uint32_t> changed_size;  // per prev label
+  std::vector<uint32_t> nearer_size;   // per current label: its pixels that came nearer
   std::vector<uint8_t> changed_track;
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
@@ -261,6 +273,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
     surface_layout = num_pixels;
   }
+  nearer_size.clear();
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
     changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
@@ -280,11 +293,13 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const uint8_t* moved = depth_changed.data();
     const bool contiguous = ids_contiguous;
     const size_t table = counts.size();
-    overlap_tables.assign(table + changed_counts.size(), 0u);
+    const size_t nearer_table = compare_depth ? stride : 0;
+    overlap_tables.assign(table + changed_counts.size() + nearer_table, 0u);
     core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
                         overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
                           uint32_t* both = tables;  // this chunk's overlap counts
                           uint32_t* changed = tables + table;
+                          uint32_t* nearer = changed + changed_counts.size();
                           core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
                             const size_t i = b + j;
                             const uint32_t p = prev[i];
@@ -294,13 +309,18 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                             if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
                             prev[i] = c;
                             ++both[p * stride + c];
-                            if (compare_depth && p != 0) changed[p * stride + c] += moved[i];
+                            if (!compare_depth) return;
+                            if (p != 0) changed[p * stride + c] += moved[i] & 1u;
+                            nearer[c] += moved[i] >> 1;
                           });
                         });
     std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
               counts.begin());
-    std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), overlap_tables.end(),
+    const auto nearer_begin =
+        overlap_tables.begin() + static_cast<ptrdiff_t>(table + changed_counts.size());
+    std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), nearer_begin,
               changed_counts.begin());
+    nearer_size.assign(nearer_begin, overlap_tables.end());
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
@@ -442,7 +462,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
     for (int v = 0; v < num_tracks; ++v) {
       const Track& t = tracks[static_cast<size_t>(v)];
-      if (!t.confirmed && t.first_seq > lost_since)
+      if (!t.confirmed && t.first_seq >= lost_since)
         score[static_cast<size_t>(v) * num_dets + d] = 0.0;
     }
   }
@@ -476,6 +496,12 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // the part with the most points keeps it (with split_own_margin_m, the part nearest the
   // track's own centroid, when clearly nearest). Merges: a track whose previous mask lies mostly
   // on one object is absorbed by it; only the largest of those tracks keeps the object.
+  // A part may keep the track by lying nearest its own centroid only when it holds
+  // kOwnPartMinShare of the track's own view: a sliver of an object cut in two by one put down
+  // across it lies nearer its centroid than either half.
+  auto holds_own = [&](const Track& t, const Object& o) {
+    return static_cast<float>(o.num_points) >= kOwnPartMinShare * static_cast<float>(t.own_points);
+  };
   if (overlap) {
     for (int r = 0; r < num_tracks; ++r) {
       const Track& t = tracks[static_cast<size_t>(r)];
@@ -496,9 +522,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         const float near_b = Distance(b.centroid, t.own_centroid);
         const float margin = params.split_own_margin_m;
         const bool own = margin > 0.f;
-        if (own && near_o + margin < near_b) {
+        if (own && near_o + margin < near_b && holds_own(t, o)) {
           best = d;
-        } else if ((!own || near_b + margin >= near_o) &&
+        } else if ((!own || near_b + margin >= near_o || !holds_own(t, b)) &&
                    (o.num_points > b.num_points ||
                     (o.num_points == b.num_points && i > part_inter(r, best)))) {
           best = d;
@@ -510,7 +536,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       // by its size alone.
       const float near_best =
           Distance(frame.objects[static_cast<size_t>(best)].centroid, t.own_centroid);
-      bool by_own = params.split_own_margin_m > 0.f;
+      bool by_own =
+          params.split_own_margin_m > 0.f && holds_own(t, frame.objects[static_cast<size_t>(best)]);
       for (int d = 0; d < num_dets; ++d) {
         const uint32_t i = part_inter(r, d);
         const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
@@ -625,17 +652,33 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       // A confirmed track's view made mostly of pixels that were background in the previous
       // frame (a new surface joined to it: an object put down against it) is neither its own
       // view nor its reference view.
-      const bool joined = overlap && t.prev_label != 0 && t.confirmed &&
-                          counts[o.id] >= params.part_min_fraction * cur_size[o.id];
-      if (joined) t.joined_seq = seq;
+      // So is a view whose pixels that came nearer than what the previous frame showed there
+      // (an object put down on it, or against it) reach part_min_fraction of the track's own
+      // view: an object uncovered by one taken away from it comes from behind.
+      const uint32_t nearer = nearer_size.empty() ? 0u : nearer_size[o.id];
+      const bool stacked =
+          overlap && t.prev_label != 0 && t.confirmed && nearer > 0 &&
+          static_cast<float>(nearer) >= params.part_min_fraction * static_cast<float>(t.own_points);
+      const bool joined = stacked || (overlap && t.prev_label != 0 && t.confirmed &&
+                                      counts[o.id] >= params.part_min_fraction * cur_size[o.id]);
+      if (joined) {
+        t.joined_seq = seq;
+        t.stacked_points = stacked ? nearer : 0u;
+      }
       // ... nor, for joined_view_frames frames, a view still mostly made of what joined it
       // and reaching out of the track's remembered box (an object uncovered by an occluder
       // that leaves grows back within it).
+      // A view that came in front of it stays joined while the view holds the track's own
+      // view and part_min_fraction of what came.
       const bool still_joined =
           t.joined_seq >= 0 && seq - t.joined_seq <= params.joined_view_frames &&
-          static_cast<float>(t.own_points) <=
-              (1.f - params.part_min_fraction) * static_cast<float>(o.num_points) &&
-          InsideShare(Box{o.aabb_min, o.aabb_max}, t.ref_box) < params.part_min_fraction;
+          ((static_cast<float>(t.own_points) <=
+                (1.f - params.part_min_fraction) * static_cast<float>(o.num_points) &&
+            InsideShare(Box{o.aabb_min, o.aabb_max}, t.ref_box) < params.part_min_fraction) ||
+           (t.stacked_points > 0 &&
+            static_cast<float>(o.num_points) >=
+                static_cast<float>(t.own_points) +
+                    params.part_min_fraction * static_cast<float>(t.stacked_points)));
       const bool own_view = !joined && !still_joined;
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;

@@ -62,8 +62,9 @@ struct TrackerParams {
   /// lost-but-remembered (0.5..1).
   float part_min_fraction{0.5f};
   /// Splits: when > 0, the part whose centroid lies nearer by more than this (metres) to the
-  /// track's own last centroid keeps the track, parts within it of each other leaving it to
-  /// the one with more points; a track's own centroid is that of its last view that absorbed
+  /// track's own last centroid keeps the track when it holds a quarter of the track's own view
+  /// (not a sliver), parts within it of each other leaving it to the one with more points; a
+  /// track's own centroid is that of its last view that absorbed
   /// no other track and held no remembered one (so after a merge comes apart each object
   /// gets its own id back). 0 = off: the part with the most points keeps it.
   float split_own_margin_m{0.01f};
@@ -72,7 +73,11 @@ struct TrackerParams {
   /// against it and segmented with it), a view of which the track's own view is at most
   /// 1 - part_min_fraction, and whose box lies less than part_min_fraction inside the track's
   /// remembered box (an object uncovered by a leaving occluder grows back within it), is still
-  /// not the track's own: its own centroid and reference view stay those of the object alone,
+  /// not the track's own. With the frame's depth, a view whose pixels that came nearer than
+  /// what the previous frame showed there (surface_change_min_step_m) reach part_min_fraction
+  /// of the track's own view joined it too (an object put down on it; one uncovered comes from
+  /// behind), and it stays joined while the view holds the own view and part_min_fraction of
+  /// what came. Meanwhile its own centroid and reference view stay those of the object alone,
   /// so that when the objects by arrival cut the newcomer off (segmenter.partition, up to
   /// arrival_confirm_frames + hold_frames - 2 frames later) the track's id goes to its own
   /// object. 0 = only the frame it joined.

@@ -427,6 +427,47 @@ TEST_F(TrackerDepthTest, ANewObjectWhereARememberedOneWasDoesNotTakeItsId) {
   EXPECT_EQ(Ids(Step({a, b})), (std::vector<int64_t>{1, 2}));
 }
 
+// An occluder sweeps across a long object on a table. Its left end shows again while the
+// track still continues on its right end (so the left end starts a new track); then the right
+// end is hidden too. The left end shows the track's remembered surface: the track that began in
+// the frame the object was last seen in does not keep it, the object gets its id back.
+TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderGetsTheObjectsIdBack) {
+  const Surface table{Rect{0, 0, 120, 80}, 1.2f, 0};
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(Ids(Step({table, Surface{Rect{10, 10, 60, 30}, 1.0f, 1}})),
+              (std::vector<int64_t>{1}));
+  }
+  // The occluder (a segment of its own) hides the left half, then the middle.
+  EXPECT_EQ(Ids(Step({table, Surface{Rect{35, 10, 60, 30}, 1.0f, 1},
+                      Surface{Rect{5, 5, 35, 35}, 0.6f, 2}})),
+            (std::vector<int64_t>{1, 2}));
+  const TrackingResult& both =
+      Step({table, Surface{Rect{10, 10, 18, 30}, 1.0f, 1}, Surface{Rect{45, 10, 60, 30}, 1.0f, 2},
+            Surface{Rect{18, 5, 45, 35}, 0.6f, 3}});
+  EXPECT_EQ(Ids(both), (std::vector<int64_t>{3, 1, 2}));
+  // The right end hidden: the left end continues the new track for a frame (the object was
+  // seen in the previous frame), then shows the remembered surface as the object's own.
+  Step({table, Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 5, 65, 35}, 0.6f, 2}});
+  const TrackingResult& back =
+      Step({table, Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 5, 65, 35}, 0.6f, 2}});
+  EXPECT_EQ(back.objects[0].track_id, 1);
+  EXPECT_TRUE(back.objects[0].reacquired);
+}
+
+// An object put down across a long object on a table cuts it into two halves and a sliver
+// below the newcomer, nearer the object's centroid than either half: a half keeps the id.
+TEST_F(TrackerDepthTest, ASliverOfAnObjectCutInTwoDoesNotKeepItsId) {
+  const Surface table{Rect{0, 0, 120, 80}, 1.2f, 0};
+  for (int f = 0; f < 4; ++f) Step({table, Surface{Rect{10, 10, 60, 30}, 1.0f, 1}});
+  const TrackingResult& t =
+      Step({table, Surface{Rect{10, 10, 30, 30}, 1.0f, 1}, Surface{Rect{40, 10, 60, 30}, 1.0f, 2},
+            Surface{Rect{30, 28, 40, 30}, 1.0f, 3}, Surface{Rect{30, 5, 40, 28}, 0.9f, 4}});
+  ASSERT_EQ(t.objects.size(), 4u);
+  EXPECT_EQ(t.objects[0].track_id, 1);  // the halves tie; the first keeps it
+  EXPECT_NE(t.objects[2].track_id, 1);  // not the sliver
+  EXPECT_EQ(t.counts.splits, 1);
+}
+
 TEST_F(TrackerDepthTest, ANewBandDecidesWhichDepthsAreTheRememberedSurface) {
   const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2}, b_alone{kB, 1.0f, 1};
   for (int f = 0; f < 4; ++f) Step({a, b});
@@ -490,13 +531,14 @@ TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId)
   }
 }
 
-// The same, with the object put down segmented with kA for seven frames, as before the objects
-// by arrival cut it off (their confirmation and the partition hysteresis): kA keeps its id.
-// With joined_view_frames 0 the merged view became the track's own from its second frame, and
-// the split handed kA's id to the newcomer.
-TEST(TrackerJoinedView, AnObjectJoinedToATrackForSeveralFramesLeavesItItsIdWhenCutOff) {
-  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
-  const Surface joined{Rect{10, 30, 40, 55}, 1.0f, 1}, apart{Rect{10, 30, 40, 55}, 1.0f, 3};
+// kA and kB seen for four frames (`still`), then a newcomer segmented with kA for seven frames
+// (`joined`: labels 1 and 2), then cut off (`apart`: labels 1, 2, 3), as before the objects by
+// arrival cut it off (their confirmation and the partition hysteresis). With
+// joined_view_frames 10, kA keeps its id; with 0 the merged view became kA's own from its
+// second frame and the split handed kA's id to the newcomer.
+void ExpectTheIdStaysWithTheJoinedTrackWhenCutOff(const std::vector<Surface>& still,
+                                                  const std::vector<Surface>& joined,
+                                                  const std::vector<Surface>& apart) {
   for (const int frames : {10, 0}) {
     TrackerParams p;
     p.joined_view_frames = frames;
@@ -509,11 +551,11 @@ TEST(TrackerJoinedView, AnObjectJoinedToATrackForSeveralFramesLeavesItItsIdWhenC
       dut.Update(frame, seq++, &out, cloud);
       return Ids(out);
     };
-    for (int f = 0; f < 4; ++f) step({a, b});
+    for (int f = 0; f < 4; ++f) step(still);
     for (int f = 0; f < 7; ++f) {
-      EXPECT_EQ(step({a, b, joined}), (std::vector<int64_t>{1, 2})) << frames << " " << f;
+      EXPECT_EQ(step(joined), (std::vector<int64_t>{1, 2})) << frames << " " << f;
     }
-    const std::vector<int64_t> ids = step({a, b, apart});
+    const std::vector<int64_t> ids = step(apart);
     ASSERT_EQ(ids.size(), 3u);
     if (frames > 0) {
       EXPECT_EQ(ids, (std::vector<int64_t>{1, 2, 3}));
@@ -522,6 +564,25 @@ TEST(TrackerJoinedView, AnObjectJoinedToATrackForSeveralFramesLeavesItItsIdWhenC
       EXPECT_EQ(ids[2], 1);
     }
   }
+}
+
+// The same, with the object put down against kA.
+TEST(TrackerJoinedView, AnObjectJoinedToATrackForSeveralFramesLeavesItItsIdWhenCutOff) {
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  const Surface joined{Rect{10, 30, 40, 55}, 1.0f, 1}, apart{Rect{10, 30, 40, 55}, 1.0f, 3};
+  ExpectTheIdStaysWithTheJoinedTrackWhenCutOff({a, b}, {a, b, joined}, {a, b, apart});
+}
+
+// An object put down on kA, on a table, covering a quarter of it and reaching out over the
+// table. The newcomer's pixels were kA's or the table's and came nearer (fewer than half of them
+// were background before, and a quarter of kA's surface changed, so neither the join against
+// kA nor the surface change rule sees it).
+TEST(TrackerJoinedView, AnObjectPutDownOnATrackAndJoinedToItLeavesItItsIdWhenCutOff) {
+  const Surface table{Rect{0, 0, 120, 80}, 1.2f, 0};
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  const Rect on_a{20, 20, 45, 36};  // 400 pixels, 100 of them over kA's 400
+  ExpectTheIdStaysWithTheJoinedTrackWhenCutOff({table, a, b}, {table, a, b, Surface{on_a, 0.9f, 1}},
+                                               {table, a, b, Surface{on_a, 0.9f, 3}});
 }
 
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
