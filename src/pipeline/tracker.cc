@@ -26,6 +26,9 @@ struct Box {
 // halves of an object cut by one put down across it does not.
 constexpr float kOwnPartMinShare = 0.25f;
 
+// The saturated value of a pixel's frames since its surface came in front (StepDepths).
+constexpr int32_t kNeverInFront = 255;
+
 float Distance(const core::Vec3f& a, const core::Vec3f& b) {
   const float dx = a.x - b.x, dy = a.y - b.y, dz = a.z - b.z;
   return std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -36,20 +39,27 @@ float Diagonal(const Box& b) { return Distance(b.min, b.max); }
 // Per pixel into `changed` when `compare`: bit 0 set when its depth moved by at least
 // max(min_step, the band at its previous depth) since `prev_z`, bit 1 when it came nearer by
 // that much (a surface in front of what was there); 0 where either depth is NaN. `prev_z` is set
-// to this frame's depth. Without branches and with restrict pointers: the compiler vectorises it.
+// to this frame's depth. `front_age` counts the frames since the pixel's surface came in front
+// of what was there (0 in that frame; kNeverInFront when it never did, or went back since).
+// Without branches and with restrict pointers: the compiler vectorises it.
 void StepDepths(size_t num, const core::Vec3f* __restrict xyz, float min_step,
                 const TemporalFilterParams band, bool compare, float* __restrict prev_z,
-                uint8_t* __restrict changed) {
+                uint8_t* __restrict changed, uint8_t* __restrict front_age) {
   if (compare) {
     for (size_t i = 0; i < num; ++i) {
       const float z = xyz[i].z, before = prev_z[i];
       const float step = std::max(min_step, band.BandAt(before)), nearer = before - z;
-      const int32_t bits = (std::fabs(nearer) >= step) | ((nearer >= step) << 1);
-      changed[i] = static_cast<uint8_t>(bits);
+      const int32_t moved = std::fabs(nearer) >= step, came = nearer >= step;
+      changed[i] = static_cast<uint8_t>(moved | (came << 1));
+      const int32_t aged = std::min(static_cast<int32_t>(front_age[i]) + 1, kNeverInFront);
+      front_age[i] = static_cast<uint8_t>(came ? 0 : (moved ? kNeverInFront : aged));
       prev_z[i] = z;
     }
   } else {
-    for (size_t i = 0; i < num; ++i) prev_z[i] = xyz[i].z;
+    for (size_t i = 0; i < num; ++i) {
+      prev_z[i] = xyz[i].z;
+      front_age[i] = kNeverInFront;
+    }
   }
 }
 
@@ -216,6 +226,11 @@ struct Tracker::Impl {
   std::vector<uint8_t> depth_changed;
   std::vector<uint32_t> changed_size;  // per prev label
   std::vector<uint32_t> nearer_size;   // per current label: its pixels that came nearer
+  // Per pixel: frames since its surface came in front (kNeverInFront: not since it went back).
+  std::vector<uint8_t> front_age;
+  // Per current label: its pixels whose surface came in front within joined_view_frames, and
+  // those whose depth moved since the previous frame.
+  std::vector<uint32_t> front_size, moved_size;
   std::vector<uint8_t> changed_track;
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
@@ -264,8 +279,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // The frame's depth, in the labels' layout.
   const bool with_depth = num_pixels > 0 && cloud.size() == num_pixels;
   const bool compare_depth = overlap && with_depth && prev_z.size() == num_pixels;
-  if (with_depth && prev_z.size() != num_pixels) prev_z.assign(num_pixels, 0.f);
-  if (!with_depth) prev_z.clear();
+  if (with_depth && prev_z.size() != num_pixels) {
+    prev_z.assign(num_pixels, 0.f);
+    front_age.assign(num_pixels, static_cast<uint8_t>(kNeverInFront));
+  }
+  if (!with_depth) {
+    prev_z.clear();
+    front_age.clear();
+  }
   if (with_depth && num_pixels != surface_layout) {  // another layout: forget the surfaces
     for (Track& t : tracks) {
       t.remembered_pixels.clear();
@@ -274,6 +295,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     surface_layout = num_pixels;
   }
   nearer_size.clear();
+  front_size.clear();
+  moved_size.clear();
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
     changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
@@ -284,22 +307,27 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       depth_changed.resize(num_pixels);
       core::ForChunks(pool, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
         StepDepths(e - b, cloud.xyz.data() + b, params.surface_change_min_step_m, band,
-                   compare_depth, prev_z.data() + b, depth_changed.data() + b);
+                   compare_depth, prev_z.data() + b, depth_changed.data() + b,
+                   front_age.data() + b);
       });
     }
     // Per chunk of pixels (on the pool): the overlap, then the changed pixels of it.
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
     const uint8_t* moved = depth_changed.data();
+    const uint8_t* age = front_age.data();
+    const int32_t recent = std::min(params.joined_view_frames, kNeverInFront - 1);
     const bool contiguous = ids_contiguous;
     const size_t table = counts.size();
     const size_t nearer_table = compare_depth ? stride : 0;
-    overlap_tables.assign(table + changed_counts.size() + nearer_table, 0u);
+    overlap_tables.assign(table + changed_counts.size() + 3 * nearer_table, 0u);
     core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
                         overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
                           uint32_t* both = tables;  // this chunk's overlap counts
                           uint32_t* changed = tables + table;
                           uint32_t* nearer = changed + changed_counts.size();
+                          uint32_t* front = nearer + nearer_table;
+                          uint32_t* came_or_went = front + nearer_table;
                           core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
                             const size_t i = b + j;
                             const uint32_t p = prev[i];
@@ -312,6 +340,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                             if (!compare_depth) return;
                             if (p != 0) changed[p * stride + c] += moved[i] & 1u;
                             nearer[c] += moved[i] >> 1;
+                            front[c] += age[i] <= recent;
+                            came_or_went[c] += moved[i] & 1u;
                           });
                         });
     std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
@@ -320,7 +350,11 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         overlap_tables.begin() + static_cast<ptrdiff_t>(table + changed_counts.size());
     std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), nearer_begin,
               changed_counts.begin());
-    nearer_size.assign(nearer_begin, overlap_tables.end());
+    nearer_size.assign(nearer_begin, nearer_begin + static_cast<ptrdiff_t>(nearer_table));
+    front_size.assign(nearer_begin + static_cast<ptrdiff_t>(nearer_table),
+                      nearer_begin + static_cast<ptrdiff_t>(2 * nearer_table));
+    moved_size.assign(nearer_begin + static_cast<ptrdiff_t>(2 * nearer_table),
+                      overlap_tables.end());
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
@@ -502,16 +536,42 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   auto holds_own = [&](const Track& t, const Object& o) {
     return static_cast<float>(o.num_points) >= kOwnPartMinShare * static_cast<float>(t.own_points);
   };
+  // Whether object d mostly came in front of what was there within joined_view_frames: put down
+  // on a track (or passing in front of it), never a part of the track's own object when a part
+  // that stayed where it was (neither came in front nor moved since the previous frame) is there.
+  auto came_in_front = [&](int d) {
+    if (front_size.empty()) return false;
+    const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
+    return front_size[id] > 0 && front_size[id] >= params.part_min_fraction * cur_size[id];
+  };
+  auto stayed = [&](int d) {
+    if (front_size.empty()) return false;
+    const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
+    return !came_in_front(d) && moved_size[id] < params.part_min_fraction * cur_size[id];
+  };
   if (overlap) {
     for (int r = 0; r < num_tracks; ++r) {
       const Track& t = tracks[static_cast<size_t>(r)];
       if (t.prev_label == 0) continue;
+      auto is_part = [&](int d) {
+        const uint32_t i = part_inter(r, d);
+        return i > 0 &&
+               i >= params.part_min_fraction * cur_size[frame.objects[static_cast<size_t>(d)].id];
+      };
+      // When a part stayed where it was, the parts that came in front do not keep the track; only
+      // for a track older than joined_view_frames (a newcomer's own pixels all came in front) and
+      // a part that is not a sliver.
+      bool one_stayed = false;
+      const bool old = seq - t.first_seq > params.joined_view_frames;
+      for (int d = 0; d < num_dets && old && !one_stayed; ++d) {
+        one_stayed = is_part(d) && stayed(d) && holds_own(t, frame.objects[static_cast<size_t>(d)]);
+      }
       int parts = 0, best = -1;
       for (int d = 0; d < num_dets; ++d) {
-        const uint32_t i = part_inter(r, d);
-        const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
-        if (i == 0 || i < params.part_min_fraction * size) continue;
+        if (!is_part(d)) continue;
         ++parts;
+        if (one_stayed && came_in_front(d)) continue;
+        const uint32_t i = part_inter(r, d);
         if (best < 0) {
           best = d;
           continue;
@@ -536,19 +596,20 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       // by its size alone.
       const float near_best =
           Distance(frame.objects[static_cast<size_t>(best)].centroid, t.own_centroid);
+      // Parts that came in front were not candidates and are no rivals.
       bool by_own =
           params.split_own_margin_m > 0.f && holds_own(t, frame.objects[static_cast<size_t>(best)]);
+      bool rivals = false;
       for (int d = 0; d < num_dets; ++d) {
-        const uint32_t i = part_inter(r, d);
-        const uint32_t size = cur_size[frame.objects[static_cast<size_t>(d)].id];
-        if (d != best && i > 0 && i >= params.part_min_fraction * size) {
-          score[static_cast<size_t>(r) * num_dets + d] = 0.0;
-          by_own = by_own &&
-                   near_best + params.split_own_margin_m <
-                       Distance(frame.objects[static_cast<size_t>(d)].centroid, t.own_centroid);
-        }
+        if (d == best || !is_part(d)) continue;
+        score[static_cast<size_t>(r) * num_dets + d] = 0.0;
+        if (one_stayed && came_in_front(d)) continue;
+        rivals = true;
+        by_own =
+            by_own && near_best + params.split_own_margin_m <
+                          Distance(frame.objects[static_cast<size_t>(d)].centroid, t.own_centroid);
       }
-      split_by_size[static_cast<size_t>(r)] = !by_own;
+      split_by_size[static_cast<size_t>(r)] = rivals && !by_own;
     }
     for (int d = 0; d < num_dets; ++d) {
       int absorbed = 0, best = -1;
@@ -768,7 +829,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     for (size_t i = 0; i < num_pixels; ++i) {
       const uint32_t c = frame.labels.data[i];
       prev_labels[i] = c <= cur_max_label && label_to_det[c] >= 0 ? c : 0;
-      if (with_depth) prev_z[i] = cloud.xyz[i].z;
+      if (with_depth) {
+        prev_z[i] = cloud.xyz[i].z;
+        front_age[i] = static_cast<uint8_t>(kNeverInFront);
+      }
     }
   }
   prev_max_label = cur_max_label;

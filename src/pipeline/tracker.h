@@ -80,7 +80,11 @@ struct TrackerParams {
   /// what came. Meanwhile its own centroid and reference view stay those of the object alone,
   /// so that when the objects by arrival cut the newcomer off (segmenter.partition, up to
   /// arrival_confirm_frames + hold_frames - 2 frames later) the track's id goes to its own
-  /// object. 0 = only the frame it joined.
+  /// object. With the frame's depth it is also how long a surface that came in front of what
+  /// was there stays a newcomer: when a track older than this splits, a part whose pixels mostly
+  /// came in front within it does not keep the track while a part that stayed is there (neither
+  /// came in front nor moved since the previous frame, holding a quarter of the track's own
+  /// view). 0 = only the frame it joined.
   int joined_view_frames{10};
 
   /// Weight of mask IoU in the association score of tracks seen in the previous frame; the

@@ -536,21 +536,34 @@ TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId)
 // arrival cut it off (their confirmation and the partition hysteresis). With
 // joined_view_frames 10, kA keeps its id; with 0 the merged view became kA's own from its
 // second frame and the split handed kA's id to the newcomer.
+// A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
+class JoinedViewRun {
+ public:
+  explicit JoinedViewRun(int joined_view_frames) : dut_(Params(joined_view_frames)) {}
+  std::vector<int64_t> Step(const std::vector<Surface>& surfaces) {
+    dut_.Update(MakeDepthFrame(surfaces, &cloud_), seq_++, &out_, cloud_);
+    return Ids(out_);
+  }
+  const TrackingResult& out() const { return out_; }
+
+ private:
+  static TrackerParams Params(int joined_view_frames) {
+    TrackerParams p;
+    p.joined_view_frames = joined_view_frames;
+    return p;
+  }
+  Tracker dut_;
+  TrackingResult out_;
+  core::PointCloud cloud_;
+  int64_t seq_{0};
+};
+
 void ExpectTheIdStaysWithTheJoinedTrackWhenCutOff(const std::vector<Surface>& still,
                                                   const std::vector<Surface>& joined,
                                                   const std::vector<Surface>& apart) {
   for (const int frames : {10, 0}) {
-    TrackerParams p;
-    p.joined_view_frames = frames;
-    Tracker dut(p);
-    TrackingResult out;
-    core::PointCloud cloud;
-    int64_t seq = 0;
-    const auto step = [&](const std::vector<Surface>& surfaces) {
-      const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
-      dut.Update(frame, seq++, &out, cloud);
-      return Ids(out);
-    };
+    JoinedViewRun run(frames);
+    const auto step = [&](const std::vector<Surface>& surfaces) { return run.Step(surfaces); };
     for (int f = 0; f < 4; ++f) step(still);
     for (int f = 0; f < 7; ++f) {
       EXPECT_EQ(step(joined), (std::vector<int64_t>{1, 2})) << frames << " " << f;
@@ -583,6 +596,40 @@ TEST(TrackerJoinedView, AnObjectPutDownOnATrackAndJoinedToItLeavesItItsIdWhenCut
   const Rect on_a{20, 20, 45, 36};  // 400 pixels, 100 of them over kA's 400
   ExpectTheIdStaysWithTheJoinedTrackWhenCutOff({table, a, b}, {table, a, b, Surface{on_a, 0.9f, 1}},
                                                {table, a, b, Surface{on_a, 0.9f, 3}});
+}
+
+// An object put down across the middle of a long one on a table, hiding a third of it (too
+// little for the join by what came nearer) and segmented with both ends for seven frames, then
+// cut off: the merged view had become the track's own and the newcomer lay nearest its
+// centroid, but the newcomer came in front of what was there and does not keep the id; an end
+// that stayed does. With joined_view_frames 0 only what came in front in the frame of the split
+// counts, and the newcomer took the id.
+TEST(TrackerCameInFront, AnObjectPutDownAcrossATrackDoesNotTakeItsIdWhenCutOff) {
+  const Surface table{Rect{0, 0, 120, 80}, 1.2f, 0};
+  const Rect left{10, 10, 30, 30}, right{50, 10, 75, 30};  // 400 and 500 pixels
+  const Rect across{30, 8, 50, 32};  // 480 pixels, 400 of them over the object's 1300
+  for (const int frames : {10, 0}) {
+    JoinedViewRun run(frames);
+    const auto step = [&](const std::vector<Surface>& surfaces) { return run.Step(surfaces); };
+    for (int f = 0; f < 4; ++f) {
+      EXPECT_EQ(step({table, Surface{Rect{10, 10, 75, 30}, 1.0f, 1}}), (std::vector<int64_t>{1}));
+    }
+    for (int f = 0; f < 7; ++f) {
+      const std::vector<Surface> joined{table, Surface{left, 1.0f, 1}, Surface{right, 1.0f, 1},
+                                        Surface{across, 0.9f, 1}};
+      EXPECT_EQ(step(joined), (std::vector<int64_t>{1})) << frames << " " << f;
+    }
+    const std::vector<int64_t> ids =
+        step({table, Surface{left, 1.0f, 1}, Surface{right, 1.0f, 2}, Surface{across, 0.9f, 3}});
+    ASSERT_EQ(ids.size(), 3u);
+    EXPECT_EQ(run.out().counts.splits, 1);
+    if (frames > 0) {
+      EXPECT_EQ(ids[1], 1) << "the larger end, nearer the track's centroid, keeps the id";
+      EXPECT_NE(ids[2], 1);
+    } else {
+      EXPECT_EQ(ids[2], 1) << "without it the newcomer, nearest the centroid, takes the id";
+    }
+  }
 }
 
 TEST_F(TrackerTest, UnorganizedCloudsGiveTheSameIds) {
