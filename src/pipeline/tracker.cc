@@ -219,7 +219,8 @@ struct Tracker::Impl {
   // Per-frame work buffers.
   std::vector<int32_t> label_to_det;
   std::vector<uint32_t> counts;  // (prev label) x (current label) pixel contingency
-  // Of those, the pixels whose surface changed (a surface in front, or taken away).
+  // Of those, the pixels whose surface changed (a surface in front, or taken away); the row of
+  // previous label 0 holds an object's pixels that were background and moved.
   std::vector<uint32_t> changed_counts;
   std::vector<uint32_t> overlap_tables, chunk_tables;  // counts and changed_counts, counted
   // Per pixel: its depth moved since the previous frame (bit 0), nearer (bit 1).
@@ -229,7 +230,7 @@ struct Tracker::Impl {
   // Per pixel: frames since its surface came in front (kNeverInFront: not since it went back).
   std::vector<uint8_t> front_age;
   // Per current label: its pixels whose surface came in front within joined_view_frames, and
-  // those whose depth moved since the previous frame.
+  // those whose depth moved since the previous frame (changed_counts' column sums).
   std::vector<uint32_t> front_size, moved_size;
   std::vector<uint8_t> changed_track;
   // Per remembered track and object: the object's pixels showing the track's remembered
@@ -320,14 +321,13 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const bool contiguous = ids_contiguous;
     const size_t table = counts.size();
     const size_t nearer_table = compare_depth ? stride : 0;
-    overlap_tables.assign(table + changed_counts.size() + 3 * nearer_table, 0u);
+    overlap_tables.assign(table + changed_counts.size() + 2 * nearer_table, 0u);
     core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
                         overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
                           uint32_t* both = tables;  // this chunk's overlap counts
                           uint32_t* changed = tables + table;
                           uint32_t* nearer = changed + changed_counts.size();
                           uint32_t* front = nearer + nearer_table;
-                          uint32_t* came_or_went = front + nearer_table;
                           core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
                             const size_t i = b + j;
                             const uint32_t p = prev[i];
@@ -338,10 +338,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                             prev[i] = c;
                             ++both[p * stride + c];
                             if (!compare_depth) return;
-                            if (p != 0) changed[p * stride + c] += moved[i] & 1u;
+                            changed[p * stride + c] += moved[i] & 1u;
                             nearer[c] += moved[i] >> 1;
                             front[c] += age[i] <= recent;
-                            came_or_went[c] += moved[i] & 1u;
                           });
                         });
     std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
@@ -351,10 +350,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), nearer_begin,
               changed_counts.begin());
     nearer_size.assign(nearer_begin, nearer_begin + static_cast<ptrdiff_t>(nearer_table));
-    front_size.assign(nearer_begin + static_cast<ptrdiff_t>(nearer_table),
-                      nearer_begin + static_cast<ptrdiff_t>(2 * nearer_table));
-    moved_size.assign(nearer_begin + static_cast<ptrdiff_t>(2 * nearer_table),
-                      overlap_tables.end());
+    front_size.assign(nearer_begin + static_cast<ptrdiff_t>(nearer_table), overlap_tables.end());
+    moved_size.assign(nearer_table, 0u);
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
     changed_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
@@ -363,7 +360,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         const uint32_t n = counts[p * stride + c];
         prev_size[p] += n;
         cur_size[c] += n;
-        if (compare_depth) changed_size[p] += changed_counts[p * stride + c];
+        if (!compare_depth) continue;
+        changed_size[p] += changed_counts[p * stride + c];
+        moved_size[c] += changed_counts[p * stride + c];
       }
     }
   }

@@ -531,11 +531,6 @@ TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId)
   }
 }
 
-// kA and kB seen for four frames (`still`), then a newcomer segmented with kA for seven frames
-// (`joined`: labels 1 and 2), then cut off (`apart`: labels 1, 2, 3), as before the objects by
-// arrival cut it off (their confirmation and the partition hysteresis). With
-// joined_view_frames 10, kA keeps its id; with 0 the merged view became kA's own from its
-// second frame and the split handed kA's id to the newcomer.
 // A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
 class JoinedViewRun {
  public:
@@ -558,17 +553,21 @@ class JoinedViewRun {
   int64_t seq_{0};
 };
 
+// kA and kB seen for four frames (`still`), then a newcomer segmented with kA for seven frames
+// (`joined`: labels 1 and 2), then cut off (`apart`: labels 1, 2, 3), as before the objects by
+// arrival cut it off (their confirmation and the partition hysteresis). With
+// joined_view_frames 10, kA keeps its id; with 0 the merged view became kA's own from its
+// second frame and the split handed kA's id to the newcomer.
 void ExpectTheIdStaysWithTheJoinedTrackWhenCutOff(const std::vector<Surface>& still,
                                                   const std::vector<Surface>& joined,
                                                   const std::vector<Surface>& apart) {
   for (const int frames : {10, 0}) {
     JoinedViewRun run(frames);
-    const auto step = [&](const std::vector<Surface>& surfaces) { return run.Step(surfaces); };
-    for (int f = 0; f < 4; ++f) step(still);
+    for (int f = 0; f < 4; ++f) run.Step(still);
     for (int f = 0; f < 7; ++f) {
-      EXPECT_EQ(step(joined), (std::vector<int64_t>{1, 2})) << frames << " " << f;
+      EXPECT_EQ(run.Step(joined), (std::vector<int64_t>{1, 2})) << frames << " " << f;
     }
-    const std::vector<int64_t> ids = step(apart);
+    const std::vector<int64_t> ids = run.Step(apart);
     ASSERT_EQ(ids.size(), 3u);
     if (frames > 0) {
       EXPECT_EQ(ids, (std::vector<int64_t>{1, 2, 3}));
@@ -610,17 +609,17 @@ TEST(TrackerCameInFront, AnObjectPutDownAcrossATrackDoesNotTakeItsIdWhenCutOff) 
   const Rect across{30, 8, 50, 32};  // 480 pixels, 400 of them over the object's 1300
   for (const int frames : {10, 0}) {
     JoinedViewRun run(frames);
-    const auto step = [&](const std::vector<Surface>& surfaces) { return run.Step(surfaces); };
     for (int f = 0; f < 4; ++f) {
-      EXPECT_EQ(step({table, Surface{Rect{10, 10, 75, 30}, 1.0f, 1}}), (std::vector<int64_t>{1}));
+      EXPECT_EQ(run.Step({table, Surface{Rect{10, 10, 75, 30}, 1.0f, 1}}),
+                (std::vector<int64_t>{1}));
     }
     for (int f = 0; f < 7; ++f) {
       const std::vector<Surface> joined{table, Surface{left, 1.0f, 1}, Surface{right, 1.0f, 1},
                                         Surface{across, 0.9f, 1}};
-      EXPECT_EQ(step(joined), (std::vector<int64_t>{1})) << frames << " " << f;
+      EXPECT_EQ(run.Step(joined), (std::vector<int64_t>{1})) << frames << " " << f;
     }
-    const std::vector<int64_t> ids =
-        step({table, Surface{left, 1.0f, 1}, Surface{right, 1.0f, 2}, Surface{across, 0.9f, 3}});
+    const std::vector<int64_t> ids = run.Step(
+        {table, Surface{left, 1.0f, 1}, Surface{right, 1.0f, 2}, Surface{across, 0.9f, 3}});
     ASSERT_EQ(ids.size(), 3u);
     EXPECT_EQ(run.out().counts.splits, 1);
     if (frames > 0) {
