@@ -103,14 +103,16 @@ struct FrameRunner::Impl {
       lock.lock();
       lane.working = false;
       lane.finished = true;
-      // A camera's next frame is most of a period away once no lane segments: the pool's
-      // workers stop spinning, so that the threads this item wakes next (the sinks) get a core.
+      finished_inputs.push_back(item);
+      CompleteInOrder(&lock);
+      // A camera's next frame is most of a period away once no lane segments and the frames
+      // done are completed: the pool's workers stop spinning, so that the threads the
+      // completion woke (the sinks) get a core. (Before the completion, its per-pixel passes
+      // would first wake blocked workers.)
       if (params.policy == DispatchPolicy::kLatencyFirst && pool &&
           std::none_of(lanes.begin(), lanes.end(), [](const LaneState& l) { return l.working; })) {
         pool->Rest();
       }
-      finished_inputs.push_back(item);
-      CompleteInOrder(&lock);
       cv.notify_all();
     }
   }

@@ -19,8 +19,9 @@ enum class DispatchPolicy {
   /// Lowest latency (a camera): the lowest free lane (its buffers are warm); while another
   /// lane is segmenting, the item waits for that lane, which then has the pool to itself and
   /// finishes sooner, unless more items wait behind it (then the lanes pipeline to keep up).
-  /// Once no lane is segmenting, the pool rests (ThreadPool::Rest) before Done runs, so the
-  /// threads Done wakes find a core.
+  /// Once no lane is segmenting and the items done are completed, the pool rests
+  /// (ThreadPool::Rest), so the threads Done woke find a core; Done itself finds the pool's
+  /// workers awake for its own passes.
   kLatencyFirst,
   /// Highest throughput (files, benchmarks): any free lane, at once.
   kThroughput,

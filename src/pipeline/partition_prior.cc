@@ -130,12 +130,9 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   valid_r_.assign(n + 1, 0u);
   established_p_.assign(m + 1, 0u);
   state_.resize(num_pixels);
-  core::ForChunks(pool_, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
-    StepStillness(e - b, cloud.xyz.data() + b, prev_z_.data() + b, band_, params_.hold_frames,
-                  still_age_.data() + b, state_.data() + b);
-  });
   {
-    // Per chunk of pixels (on the pool) into one table: counts_rp_, valid_r_, established_p_.
+    // Per chunk of pixels (on the pool): the stillness, then into one table: counts_rp_,
+    // valid_r_, established_p_.
     const uint8_t* state = state_.data();
     const uint32_t* prev = prev_labels_.data();
     const size_t num_counts = counts_rp_.size();
@@ -145,6 +142,9 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                           uint32_t* counts = table;
                           uint32_t* valid = table + num_counts;
                           uint32_t* established = valid + (n + 1);
+                          StepStillness(e - b, cloud.xyz.data() + b, prev_z_.data() + b, band_,
+                                        params_.hold_frames, still_age_.data() + b,
+                                        state_.data() + b);
                           core::ForEachLabelled(labels + b, prev + b, e - b, [&](size_t j) {
                             const size_t i = b + j;
                             const uint32_t s = state[i];

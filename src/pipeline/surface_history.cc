@@ -367,25 +367,38 @@ uint32_t SurfaceHistory::Apply(const core::PointCloudView& cloud, std::span<cons
   ApplyMoves(labels, n, w, h);
 
   // Arrivals per segment, with their pixel counts: runs of pixels of one arrival in scan order
-  // first (a segment has a few arrivals in long runs), then merged.
+  // first (a segment has a few arrivals in long runs), per chunk of pixels on the pool, then
+  // merged (sums per arrival: the same whatever the chunks).
   runs_.resize(n + 1);
   for (auto& v : runs_) v.clear();
-  MarkFirstLabelled(num_pixels_, labels, n, ref_z_.data(), flags_.data());
   {
-    const uint8_t* flags = flags_.data();
+    const size_t stride = n + 1;
+    const size_t chunks = core::ThreadPool::NumChunks(num_pixels_, core::kPixelGrain);
+    if (chunk_runs_.size() < chunks * stride) chunk_runs_.resize(chunks * stride);
     const int32_t* birth = ref_birth_.data();
-    const size_t num = num_pixels_;  // a local: not reloaded in the loop
-    auto visit = [&](size_t i) {
-      const uint32_t r = labels[i];
-      if (r == 0 || r > n || !ArrivalKnown(flags[i])) return;  // Arrival(i) < 0
-      std::vector<Entry>& runs = runs_[r];
-      if (!runs.empty() && runs.back().birth == birth[i]) {
-        ++runs.back().count;
-      } else {
-        runs.push_back(Entry{birth[i], 1});
+    core::ForChunks(pool_, num_pixels_, core::kPixelGrain, [&](size_t b, size_t e) {
+      std::vector<Entry>* runs_of = chunk_runs_.data() + (b / core::kPixelGrain) * stride;
+      for (size_t r = 0; r < stride; ++r) runs_of[r].clear();
+      MarkFirstLabelled(e - b, labels + b, n, ref_z_.data() + b, flags_.data() + b);
+      const uint8_t* flags = flags_.data();
+      core::ForEachLabelled(labels + b, labels + b, e - b, [&](size_t j) {  // background skipped
+        const size_t i = b + j;
+        const uint32_t r = labels[i];
+        if (r == 0 || r > n || !ArrivalKnown(flags[i])) return;  // Arrival(i) < 0
+        std::vector<Entry>& runs = runs_of[r];
+        if (!runs.empty() && runs.back().birth == birth[i]) {
+          ++runs.back().count;
+        } else {
+          runs.push_back(Entry{birth[i], 1});
+        }
+      });
+    });
+    for (size_t k = 0; k < chunks; ++k) {
+      for (uint32_t r = 1; r <= n; ++r) {
+        const std::vector<Entry>& c = chunk_runs_[k * stride + r];
+        runs_[r].insert(runs_[r].end(), c.begin(), c.end());
       }
-    };
-    core::ForEachLabelled(labels, labels, num, visit);  // background skipped
+    }
   }
   uint32_t next = n + 1;
   entries_.resize(n + 1);

@@ -126,7 +126,10 @@ class SurfaceHistory {
   std::vector<uint32_t> uncovered_;      // pixels that uncovered a surface of known arrival
   std::vector<int32_t> uncovered_birth_, uncovered_since_;
   std::vector<Moved> moved_;
-  std::vector<std::vector<Entry>> runs_;     // per segment: runs of pixels of one arrival
+  std::vector<std::vector<Entry>> runs_;  // per segment: runs of pixels of one arrival
+  // The same per chunk of pixels (chunk-major: chunk k's segment r at k * (n + 1) + r), counted
+  // on the pool and appended to runs_ in chunk order.
+  std::vector<std::vector<Entry>> chunk_runs_;
   std::vector<std::vector<Entry>> entries_;  // per segment: arrivals and pixel counts
   std::vector<uint32_t> group_px_, label_of_;
   std::vector<std::vector<uint32_t>> to_;  // per segment, per entry: output label (0 = fill)

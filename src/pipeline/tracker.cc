@@ -301,18 +301,11 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
     changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
-    // The depth steps first (every pixel, vectorised; only those of a track's pixels are
-    // read). Then one pass counts the overlap and keeps this frame's labels for the next one.
-    // Most pixels are background in both frames (core::ForEachLabelled skips them).
-    if (with_depth) {
-      depth_changed.resize(num_pixels);
-      core::ForChunks(pool, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
-        StepDepths(e - b, cloud.xyz.data() + b, params.surface_change_min_step_m, band,
-                   compare_depth, prev_z.data() + b, depth_changed.data() + b,
-                   front_age.data() + b);
-      });
-    }
-    // Per chunk of pixels (on the pool): the overlap, then the changed pixels of it.
+    // Per chunk of pixels (on the pool): the depth steps first (every pixel, vectorised; only
+    // those of a track's pixels are read), then the overlap and the changed pixels of it,
+    // keeping this frame's labels for the next one. Most pixels are background in both frames
+    // (core::ForEachLabelled skips them).
+    if (with_depth) depth_changed.resize(num_pixels);
     uint32_t* prev = prev_labels.data();
     const uint32_t* cur = frame.labels.data.data();
     const uint8_t* moved = depth_changed.data();
@@ -328,6 +321,12 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                           uint32_t* changed = tables + table;
                           uint32_t* nearer = changed + changed_counts.size();
                           uint32_t* front = nearer + nearer_table;
+                          if (with_depth) {
+                            StepDepths(e - b, cloud.xyz.data() + b,
+                                       params.surface_change_min_step_m, band, compare_depth,
+                                       prev_z.data() + b, depth_changed.data() + b,
+                                       front_age.data() + b);
+                          }
                           core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
                             const size_t i = b + j;
                             const uint32_t p = prev[i];

@@ -12,6 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include "clutterseg/core/label_scan.h"
+#include "clutterseg/core/thread_pool.h"
+
 namespace clutterseg::pipeline {
 namespace {
 
@@ -541,6 +544,71 @@ TEST(PartitionPrior, TouchingObjectsSeenAgainAfterTheCameraMovedAreNotJoined) {
     ASSERT_EQ(r.objects.size(), 2u) << seq;
     EXPECT_NE(At(r, 20, 25), At(r, 40, 25)) << seq;
   }
+}
+
+// The objects by arrival are the same whatever the pool: a frame of three chunks of pixels
+// (core::kPixelGrain) whose boxes cross the chunks' boundaries. Box A (columns 40-159) is put
+// down at frame 10, box B beside it (columns 160-279) at frame 30, and the segmentation gives
+// both as one segment from then on: split by their arrivals, with no pool and on pools of two
+// and three threads alike.
+TEST(PartitionPrior, TheSameObjectsByArrivalOnAPoolOfAnySize) {
+  constexpr int w = 320, h = 240;
+  static_assert(static_cast<size_t>(w * h) > 2 * core::kPixelGrain);
+  const auto in_box = [](int u, int v, int64_t seq) {
+    if (v < 60 || v >= 200) return false;
+    return (u >= 40 && u < 160 && seq >= 10) || (u >= 160 && u < 280 && seq >= 30);
+  };
+  const auto cloud = [&](int64_t seq) {
+    core::PointCloud c;
+    c.width = w;
+    c.height = h;
+    c.xyz.resize(static_cast<size_t>(w * h));
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        const float z = in_box(u, v, seq) ? 0.9f : 1.0f;
+        c.xyz[static_cast<size_t>(v * w + u)] =
+            core::Vec3f{(u - w / 2) * 0.002f * z, (v - h / 2) * 0.002f * z, z};
+      }
+    }
+    return c;
+  };
+  const auto segmented = [&](int64_t seq) {
+    SegmentationResult r;
+    r.width = r.labels.width = w;
+    r.height = r.labels.height = h;
+    r.labels.data.resize(static_cast<size_t>(w * h));
+    for (int v = 0; v < h; ++v) {
+      for (int u = 0; u < w; ++u) {
+        r.labels.data[static_cast<size_t>(v * w + u)] = in_box(u, v, seq) ? 1u : 0u;
+      }
+    }
+    r.objects.assign(seq >= 10 ? 1 : 0, Object{});
+    for (size_t k = 0; k < r.objects.size(); ++k) r.objects[k].id = static_cast<uint32_t>(k + 1);
+    return r;
+  };
+  core::ThreadPool two(2), three(3);
+  PartitionPrior alone(Arrival(), TemporalFilterParams{});
+  PartitionPrior on_two(Arrival(), TemporalFilterParams{}, &two);
+  PartitionPrior on_three(Arrival(), TemporalFilterParams{}, &three);
+  int splits = 0;
+  for (int64_t seq = 1; seq < 60; ++seq) {
+    const core::PointCloud c = cloud(seq);
+    SegmentationResult r = segmented(seq), r2 = r, r3 = r;
+    alone.Apply(c, seq, &r);
+    on_two.Apply(c, seq, &r2);
+    on_three.Apply(c, seq, &r3);
+    splits += alone.counts().arrival_splits;
+    ASSERT_EQ(r2.objects.size(), r.objects.size()) << seq;
+    ASSERT_EQ(r3.objects.size(), r.objects.size()) << seq;
+    EXPECT_EQ(r2.labels.data, r.labels.data) << seq;
+    EXPECT_EQ(r3.labels.data, r.labels.data) << seq;
+    EXPECT_EQ(on_two.counts().arrival_splits, alone.counts().arrival_splits) << seq;
+    if (seq >= 40) {  // B arrived 20 frames after A: two objects
+      ASSERT_EQ(r.objects.size(), 2u) << seq;
+      EXPECT_NE(r.labels.data[100 * w + 100], r.labels.data[100 * w + 200]) << seq;
+    }
+  }
+  EXPECT_GT(splits, 0);
 }
 
 TEST(PartitionPrior, RefusesBadParameters) {
