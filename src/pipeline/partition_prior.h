@@ -61,7 +61,10 @@ struct PartitionPriorParams {
   /// at least this many pairs of pixels (image neighbours along a row or a column, or up to six
   /// unlabelled pixels apart, at any depth) are one object: the pieces of one object put down
   /// that the segmentation cut apart (a cup's inside and its outside wall). Two touching
-  /// objects put down in the same frame become one. 0 = never.
+  /// objects put down in the same frame become one. With it, such segments also join across
+  /// something in front of both (the ends of an object with another lying across its middle):
+  /// ten rows or columns on which they are at most 64 pixels apart with only nearer pixels and
+  /// holes between. 0 = never.
   int arrival_join_min_contact{3};
 
   /// Whether a PartitionPrior with these parameters changes anything (hold or arrivals on).

@@ -43,6 +43,11 @@ constexpr float kRejoinBands = 2.f;
 // wall are separated by the rim, seen edge-on, and its shadow (a few pixels) and a depth step
 // of up to the vessel's diameter.
 constexpr int kJoinGapPixels = 6;
+// Pieces of one arrival also touch across something in front of both (an object put down
+// across one lying there hides its middle; the ends stay in view), at most this many pixels
+// wide, holes included; this many such pairs join them.
+constexpr int kBridgePixels = 64;
+constexpr uint32_t kBridgeMinContact = 10;
 // Pieces of one arrival are of one object put down when most of their pixels arrived within
 // this many frames of each other: an object put down shows all of its faces in the frame it
 // comes to rest, while objects put down one after another arrive frames apart.
@@ -210,6 +215,7 @@ void SurfaceHistory::Update(const core::PointCloudView& cloud, std::span<const f
     for (size_t i = 0; i < num_pixels_; ++i) z_[i] = cloud.xyz[i].z;
     zs = z_.data();
   }
+  depth_ = zs;
   todo_.resize(num_pixels_);
   // The candidates' step moves twice the bytes per pixel; it pays where most pixels changed in
   // the previous frame (a new view, a camera carried around).
@@ -578,7 +584,46 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
         return;
       }
     }
-    contacts_.push_back(Contact{a, b, near ? 1u : 0u, joins ? 1u : 0u});
+    contacts_.push_back(Contact{a, b, near ? 1u : 0u, joins ? 1u : 0u, 0u});
+  };
+  // From pixel i of a segment that arrived with others, `step` at a time up to kBridgePixels:
+  // over pixels in front of it (of other segments, or unlabelled) and holes, to the first
+  // pixel of a segment that is not; a pair when that segment arrived with others too and what
+  // lies between is in front of it as well.
+  const float* depth = depth_;
+  const auto bridge = [&](size_t i, size_t step, int limit) {
+    const uint32_t l = out[i];
+    const float zi = depth[i];
+    if (!(zi > 0.f)) return;
+    const float front_of_i = zi - band_.BandAt(zi);
+    float deepest = -1.f;  // the deepest pixel in front passed (-1: none yet)
+    for (int k = 1; k <= limit; ++k) {
+      const size_t j = i + static_cast<size_t>(k) * step;
+      const uint32_t lj = out[j];
+      const float zj = depth[j];
+      if (lj == l) return;
+      const bool valid = zj > 0.f;
+      if (valid && zj < front_of_i) {
+        deepest = std::max(deepest, zj);
+        continue;
+      }
+      if (lj == 0 || lj > num_labels) {
+        if (valid) return;  // a surface not in front (the support): a gap, not an occluder
+        continue;           // a hole (the occluder's shadow)
+      }
+      if (deepest < 0.f || !valid || !together_[lj] || origin_[l] == origin_[lj]) return;
+      if (deepest >= zj - band_.BandAt(zj)) return;
+      uint32_t a = l, b = lj;
+      if (a > b) std::swap(a, b);
+      for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
+        if (it->a == a && it->b == b) {
+          ++it->bridged;
+          return;
+        }
+      }
+      contacts_.push_back(Contact{a, b, 0u, 0u, 1u});
+      return;
+    }
   };
   for (int v = 0; v < h; ++v) {
     for (int u = 0; u < w; ++u) {
@@ -599,6 +644,10 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
         if (out[j] == 0) continue;
         touch(i, j, k <= 2);
         break;
+      }
+      if (join && together_[l]) {
+        bridge(i, 1, std::min(kBridgePixels, w - 1 - u));
+        bridge(i, row, std::min(kBridgePixels, h - 1 - v));
       }
     }
   }
@@ -636,7 +685,9 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
   if (join) {
     const auto min_join = static_cast<uint32_t>(params_.join_min_contact);
     for (const Contact& c : contacts_) {
-      if (c.wide < min_join || !ArrivedTogether(c.a, c.b)) continue;
+      if ((c.wide < min_join && c.bridged < kBridgeMinContact) || !ArrivedTogether(c.a, c.b)) {
+        continue;
+      }
       const uint32_t ra = find(c.a), rb = find(c.b);
       if (ra == rb) continue;
       parent_[std::max(ra, rb)] = std::min(ra, rb);

@@ -120,6 +120,7 @@ class SurfaceHistory {
 
   // Per frame.
   std::vector<float> z_;                 // the cloud's depths, when no scene depth is given
+  const float* depth_{nullptr};          // this frame's depths (the scene's, or z_)
   std::vector<uint8_t> todo_;            // pixels left to the full rules by Update's first pass
   uint32_t last_changed_{0};             // pixels of a valid depth not on their surface, last frame
   std::vector<uint32_t> chunk_changed_;  // the same per chunk of this frame's step
@@ -142,8 +143,9 @@ class SurfaceHistory {
   std::vector<uint8_t> part_, together_;
   struct Contact {
     uint32_t a, b;
-    uint32_t count;  // within reach of a part's rejoin (Rejoin)
-    uint32_t wide;   // within reach of the join of one arrival's pieces
+    uint32_t count;    // within reach of a part's rejoin (Rejoin)
+    uint32_t wide;     // within reach of the join of one arrival's pieces
+    uint32_t bridged;  // pairs on either side of something in front of both (an occluder)
   };
   std::vector<Contact> contacts_;
   std::vector<int32_t> group_lo_, group_hi_;

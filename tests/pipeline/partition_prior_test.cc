@@ -495,6 +495,90 @@ TEST(PartitionPrior, PiecesOfOneObjectPutDownTogetherAreOneObject) {
   EXPECT_TRUE(joined);
 }
 
+// A long box A (columns 10-69) is put down at frame 10; at frame 30 box C is put down across
+// its middle (columns 36-43, nearer), its shadow a hole of three columns beside it. The
+// segmentation gives A's two ends apart from then on: they arrived together, and what lies
+// between them is in front of both, so they are one object, hidden in its middle. Box B, put
+// down at frame 20 beyond A's right end and seen the same way behind an occluder D, did not
+// arrive with A: it stays an object of its own. With the join off, A's ends stay two.
+TEST(PartitionPrior, EndsOfOneObjectOnEitherSideOfAnOccluderAreOneObject) {
+  PartitionPriorParams apart = Arrival();
+  apart.arrival_join_min_contact = 0;
+  PartitionPrior prior(Arrival(), TemporalFilterParams{});
+  PartitionPrior without(apart, TemporalFilterParams{});
+  const auto a_row = [](int v) { return v >= 20 && v < 35; };
+  const auto depth = [&](int64_t seq) {
+    return SceneOf([&, seq](int u, int v) {
+      if (!a_row(v)) return 1.0f;
+      if (seq >= 30 && u >= 36 && u < 44) return 0.85f;  // C
+      if (seq >= 30 && u >= 33 && u < 36) return NAN;    // C's shadow
+      if (u >= 10 && u < 70 && seq >= 10) return 0.95f;  // A
+      return 1.0f;
+    });
+  };
+  const auto segmented = [&](int64_t seq) {
+    return Segmentation([&, seq](int u, int v) {
+      if (!a_row(v) || seq < 10 || u < 10 || u >= 70) return 0u;
+      if (seq < 30) return 1u;
+      if (u < 33) return 1u;
+      if (u < 36) return 0u;
+      return u < 44 ? 2u : 3u;
+    });
+  };
+  bool joined = false;
+  for (int64_t seq = 1; seq < 80; ++seq) {
+    const auto [r, w] = ApplyBoth(&prior, &without, depth(seq), seq, segmented(seq));
+    joined = joined || prior.counts().arrival_joins > 0;
+    if (seq < 35) continue;  // the split of the still box is held for hold_frames without
+    EXPECT_EQ(w.objects.size(), 3u) << seq;
+    EXPECT_NE(At(w, 20, 25), At(w, 60, 25)) << seq;
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_EQ(At(r, 20, 25), At(r, 60, 25)) << seq;  // A's ends
+    EXPECT_NE(At(r, 20, 25), At(r, 40, 25)) << seq;  // not C
+  }
+  EXPECT_TRUE(joined);
+}
+
+// Two boxes put down ten frames apart (columns 10-35 at frame 10, 44-69 at frame 20) with the
+// table seen between them, and box C put down at frame 40 across that gap: they did not
+// arrive together, so they stay two objects. Nor are two pieces of one arrival (columns 10-29
+// and 46-69, both at frame 10) joined across C when the table is seen between them and it.
+TEST(PartitionPrior, PiecesApartAcrossAnOccluderStayApartUnlessTheyArrivedTogether) {
+  struct Layout {
+    int left_end, c_begin, c_end, right_begin;
+    int64_t right_arrives;
+  };
+  for (const Layout& at : {Layout{36, 36, 44, 44, 20}, Layout{30, 38, 46, 46, 10}}) {
+    PartitionPrior prior(Arrival(), TemporalFilterParams{});
+    const auto depth = [&](int64_t seq) {
+      return SceneOf([&, seq](int u, int v) {
+        if (v < 20 || v >= 35) return 1.0f;
+        if (seq >= 40 && u >= at.c_begin && u < at.c_end) return 0.85f;  // C
+        if (seq >= 10 && u >= 10 && u < at.left_end) return 0.95f;
+        if (seq >= at.right_arrives && u >= at.right_begin && u < 70) return 0.95f;
+        return 1.0f;
+      });
+    };
+    const auto segmented = [&](int64_t seq) {
+      return Segmentation([&, seq](int u, int v) {
+        if (v < 20 || v >= 35) return 0u;
+        if (seq >= 40 && u >= at.c_begin && u < at.c_end) return 2u;
+        if (seq >= 10 && u >= 10 && u < at.left_end) return 1u;
+        if (seq >= at.right_arrives && u >= at.right_begin && u < 70) return 3u;
+        return 0u;
+      });
+    };
+    for (int64_t seq = 1; seq < 80; ++seq) {
+      SegmentationResult r = segmented(seq);
+      prior.Apply(depth(seq), seq, &r);
+      if (seq < 45) continue;
+      ASSERT_EQ(r.objects.size(), 3u) << seq << " right piece at frame " << at.right_arrives;
+      EXPECT_NE(At(r, 20, 25), At(r, 60, 25))
+          << seq << " right piece at frame " << at.right_arrives;
+    }
+  }
+}
+
 // The whole scene changes from frame 0 to frame 1 (a camera turned, a synthetic source): a
 // new view. The only arrivals known in frame 1 are those of the pixels that had no depth in
 // frame 0, measured for the first time (156 of each segment's 600); they arrived with
