@@ -566,6 +566,15 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
   const bool any_part =
       std::any_of(part_.begin(), part_.begin() + num_labels + 1, [](uint8_t p) { return p != 0; });
   const size_t row = static_cast<size_t>(w);
+  // The contact of segments a and b (found from the last one added: a scan meets the same pair
+  // in runs), a new one when they have none yet.
+  const auto contact = [&](uint32_t a, uint32_t b) -> Contact& {
+    if (a > b) std::swap(a, b);
+    for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
+      if (it->a == a && it->b == b) return *it;
+    }
+    return contacts_.emplace_back(Contact{a, b, 0u, 0u, 0u});
+  };
   const auto touch = [&](size_t i, size_t j, bool adjacent) {
     uint32_t a = out[i], b = out[j];
     if (a == b || a > num_labels || b > num_labels) return;
@@ -576,15 +585,9 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
     const bool near = parts && adjacent && za > 0.f && zb > 0.f &&
                       std::abs(za - zb) <= kRejoinBands * band_.BandAt(za);
     if (!near && !joins) return;
-    if (a > b) std::swap(a, b);
-    for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
-      if (it->a == a && it->b == b) {
-        it->count += near ? 1u : 0u;
-        it->wide += joins ? 1u : 0u;
-        return;
-      }
-    }
-    contacts_.push_back(Contact{a, b, near ? 1u : 0u, joins ? 1u : 0u, 0u});
+    Contact& c = contact(a, b);
+    c.count += near ? 1u : 0u;
+    c.wide += joins ? 1u : 0u;
   };
   // From pixel i of a segment that arrived with others, `step` at a time up to kBridgePixels:
   // over pixels in front of it (of other segments, or unlabelled) and holes, to the first
@@ -613,15 +616,7 @@ void SurfaceHistory::Rejoin(const core::PointCloudView& cloud, uint32_t num_labe
       }
       if (deepest < 0.f || !valid || !together_[lj] || origin_[l] == origin_[lj]) return;
       if (deepest >= zj - band_.BandAt(zj)) return;
-      uint32_t a = l, b = lj;
-      if (a > b) std::swap(a, b);
-      for (auto it = contacts_.rbegin(); it != contacts_.rend(); ++it) {
-        if (it->a == a && it->b == b) {
-          ++it->bridged;
-          return;
-        }
-      }
-      contacts_.push_back(Contact{a, b, 0u, 0u, 1u});
+      ++contact(l, lj).bridged;
       return;
     }
   };

@@ -120,7 +120,7 @@ class SurfaceHistory {
 
   // Per frame.
   std::vector<float> z_;                 // the cloud's depths, when no scene depth is given
-  const float* depth_{nullptr};          // this frame's depths (the scene's, or z_)
+  const float* depth_{nullptr};          // this frame's depths (the scene's, or z_), in Apply
   std::vector<uint8_t> todo_;            // pixels left to the full rules by Update's first pass
   uint32_t last_changed_{0};             // pixels of a valid depth not on their surface, last frame
   std::vector<uint32_t> chunk_changed_;  // the same per chunk of this frame's step
