@@ -311,7 +311,7 @@ struct Daemon::Impl {
         }
       }
       tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking,
-                      lane.segmenter->working_cloud());
+                      lane.segmenter->working_cloud(), lane.segmenter->scene_depth());
       ToTrackMessage(tracking, &out.messages.objects);
       if (out.extrinsics) LostTracksToParentFrame(*out.extrinsics, &out.messages.objects);
     }

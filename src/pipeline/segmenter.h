@@ -50,7 +50,8 @@ class Segmenter {
   const core::PointCloud& working_cloud() const;
   /// The depth (z, metres, NaN = invalid) of each point of the working cloud before the
   /// support-first step took the large planes' interiors out: the whole scene a stream's
-  /// surface history follows (PartitionPrior::Apply). Kept only for organized clouds and when
+  /// surface history follows (PartitionPrior::Apply), and the depth the Tracker compares from
+  /// one frame to the next (Tracker::Update). Kept only for organized clouds and when
   /// params().partition asks for objects by arrival (arrival_gap_frames > 0); empty otherwise.
   /// Valid until the next call.
   const std::vector<float>& scene_depth() const;

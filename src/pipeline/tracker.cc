@@ -41,13 +41,15 @@ float Diagonal(const Box& b) { return Distance(b.min, b.max); }
 // that much (a surface in front of what was there); 0 where either depth is NaN. `prev_z` is set
 // to this frame's depth. `front_age` counts the frames since the pixel's surface came in front
 // of what was there (0 in that frame; kNeverInFront when it never did, or went back since).
-// Without branches and with restrict pointers: the compiler vectorises it.
-void StepDepths(size_t num, const core::Vec3f* __restrict xyz, float min_step,
-                const TemporalFilterParams band, bool compare, float* __restrict prev_z,
-                uint8_t* __restrict changed, uint8_t* __restrict front_age) {
+// `depth(i)` is pixel i's depth (metres, NaN = invalid). Without branches and with restrict
+// pointers: the compiler vectorises it.
+template <class Depth>
+void StepDepths(size_t num, Depth depth, float min_step, const TemporalFilterParams band,
+                bool compare, float* __restrict prev_z, uint8_t* __restrict changed,
+                uint8_t* __restrict front_age) {
   if (compare) {
     for (size_t i = 0; i < num; ++i) {
-      const float z = xyz[i].z, before = prev_z[i];
+      const float z = depth(i), before = prev_z[i];
       const float step = std::max(min_step, band.BandAt(before)), nearer = before - z;
       const int32_t moved = std::fabs(nearer) >= step, came = nearer >= step;
       changed[i] = static_cast<uint8_t>(moved | (came << 1));
@@ -57,7 +59,7 @@ void StepDepths(size_t num, const core::Vec3f* __restrict xyz, float min_step,
     }
   } else {
     for (size_t i = 0; i < num; ++i) {
-      prev_z[i] = xyz[i].z;
+      prev_z[i] = depth(i);
       front_age[i] = kNeverInFront;
     }
   }
@@ -172,7 +174,7 @@ struct Tracker::Impl {
   }
 
   void Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
-              const core::PointCloudView& cloud);
+              const core::PointCloudView& cloud, std::span<const float> scene_z);
 
   // Object `o` of `frame` (`num_pixels` pixels), `t`'s reference view, becomes its remembered
   // surface (none without depth). Reads the object's image box; the whole image when the box
@@ -226,7 +228,8 @@ struct Tracker::Impl {
   // Per pixel: its depth moved since the previous frame (bit 0), nearer (bit 1).
   std::vector<uint8_t> depth_changed;
   std::vector<uint32_t> changed_size;  // per prev label
-  std::vector<uint32_t> nearer_size;   // per current label: its pixels that came nearer
+  std::vector<uint32_t> came_size;  // per prev label: of changed_size, the pixels that came nearer
+  std::vector<uint32_t> nearer_size;  // per current label: its pixels that came nearer
   // Per pixel: frames since its surface came in front (kNeverInFront: not since it went back).
   std::vector<uint8_t> front_age;
   // Per current label: its pixels whose surface came in front within joined_view_frames, and
@@ -247,7 +250,7 @@ struct Tracker::Impl {
 };
 
 void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
-                           const core::PointCloudView& cloud) {
+                           const core::PointCloudView& cloud, std::span<const float> scene_z) {
   out->frame_seq = seq;
   out->reset = false;
   out->objects.clear();
@@ -280,6 +283,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // The frame's depth, in the labels' layout.
   const bool with_depth = num_pixels > 0 && cloud.size() == num_pixels;
   const bool compare_depth = overlap && with_depth && prev_z.size() == num_pixels;
+  // The depth the steps compare: the whole scene's when given (a surface taken away down to a
+  // support plane shows its depth there), else the cloud's.
+  const bool scene = with_depth && scene_z.size() == num_pixels;
+  const float* scene_depth = scene_z.data();
+  const core::Vec3f* cloud_xyz = cloud.xyz.data();
+  auto depth_at = [scene, scene_depth, cloud_xyz](size_t i) {
+    return scene ? scene_depth[i] : cloud_xyz[i].z;
+  };
   if (with_depth && prev_z.size() != num_pixels) {
     prev_z.assign(num_pixels, 0.f);
     front_age.assign(num_pixels, static_cast<uint8_t>(kNeverInFront));
@@ -298,6 +309,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   nearer_size.clear();
   front_size.clear();
   moved_size.clear();
+  came_size.clear();
   if (overlap) {
     counts.assign((static_cast<size_t>(prev_max_label) + 1) * stride, 0u);
     changed_counts.assign(compare_depth ? counts.size() : 0, 0u);
@@ -314,34 +326,44 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const bool contiguous = ids_contiguous;
     const size_t table = counts.size();
     const size_t nearer_table = compare_depth ? stride : 0;
-    overlap_tables.assign(table + changed_counts.size() + 2 * nearer_table, 0u);
-    core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
-                        overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
-                          uint32_t* both = tables;  // this chunk's overlap counts
-                          uint32_t* changed = tables + table;
-                          uint32_t* nearer = changed + changed_counts.size();
-                          uint32_t* front = nearer + nearer_table;
-                          if (with_depth) {
-                            StepDepths(e - b, cloud.xyz.data() + b,
-                                       params.surface_change_min_step_m, band, compare_depth,
-                                       prev_z.data() + b, depth_changed.data() + b,
-                                       front_age.data() + b);
-                          }
-                          core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
-                            const size_t i = b + j;
-                            const uint32_t p = prev[i];
-                            uint32_t c = cur[i];
-                            if ((p | c) == 0) return;
-                            // A label without an object is background.
-                            if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
-                            prev[i] = c;
-                            ++both[p * stride + c];
-                            if (!compare_depth) return;
-                            changed[p * stride + c] += moved[i] & 1u;
-                            nearer[c] += moved[i] >> 1;
-                            front[c] += age[i] <= recent;
-                          });
-                        });
+    const size_t came_table = compare_depth ? static_cast<size_t>(prev_max_label) + 1 : 0;
+    overlap_tables.assign(table + changed_counts.size() + 2 * nearer_table + came_table, 0u);
+    core::CountInChunks(
+        pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
+        overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
+          uint32_t* both = tables;  // this chunk's overlap counts
+          uint32_t* changed = tables + table;
+          uint32_t* nearer = changed + changed_counts.size();
+          uint32_t* front = nearer + nearer_table;
+          uint32_t* came = front + nearer_table;
+          // Two loops, one per depth source: each vectorises.
+          if (scene) {
+            const float* z = scene_depth + b;
+            StepDepths(
+                e - b, [z](size_t k) { return z[k]; }, params.surface_change_min_step_m, band,
+                compare_depth, prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
+          } else if (with_depth) {
+            const core::Vec3f* xyz = cloud_xyz + b;
+            StepDepths(
+                e - b, [xyz](size_t k) { return xyz[k].z; }, params.surface_change_min_step_m, band,
+                compare_depth, prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
+          }
+          core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
+            const size_t i = b + j;
+            const uint32_t p = prev[i];
+            uint32_t c = cur[i];
+            if ((p | c) == 0) return;
+            // A label without an object is background.
+            if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
+            prev[i] = c;
+            ++both[p * stride + c];
+            if (!compare_depth) return;
+            changed[p * stride + c] += moved[i] & 1u;
+            nearer[c] += moved[i] >> 1;
+            came[p] += moved[i] >> 1;
+            front[c] += age[i] <= recent;
+          });
+        });
     std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
               counts.begin());
     const auto nearer_begin =
@@ -349,7 +371,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     std::copy(overlap_tables.begin() + static_cast<ptrdiff_t>(table), nearer_begin,
               changed_counts.begin());
     nearer_size.assign(nearer_begin, nearer_begin + static_cast<ptrdiff_t>(nearer_table));
-    front_size.assign(nearer_begin + static_cast<ptrdiff_t>(nearer_table), overlap_tables.end());
+    const auto came_begin = overlap_tables.end() - static_cast<ptrdiff_t>(came_table);
+    front_size.assign(nearer_begin + static_cast<ptrdiff_t>(nearer_table), came_begin);
+    came_size.assign(came_begin, overlap_tables.end());
     moved_size.assign(nearer_table, 0u);
     prev_size.assign(static_cast<size_t>(prev_max_label) + 1, 0u);
     cur_size.assign(stride, 0u);
@@ -370,6 +394,14 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   auto surface_changed = [&](const Track& t) {
     return compare_depth && t.prev_label != 0 && prev_size[t.prev_label] > 0 &&
            changed_size[t.prev_label] >= params.surface_change_min_share * prev_size[t.prev_label];
+  };
+  // ...and whose changed pixels mostly did not come nearer: what it showed was taken away (or
+  // went back), not hidden behind a new surface.
+  auto taken_away = [&](const Track& t) {
+    if (!surface_changed(t)) return false;
+    const uint32_t changed = changed_size[t.prev_label];
+    return static_cast<float>(changed - came_size[t.prev_label]) >=
+           params.part_min_fraction * static_cast<float>(changed);
   };
   // With depth: how much of each remembered track's surface every object shows; also of a
   // track seen in the previous frame whose surface changed (an occluder crossing it may leave
@@ -739,6 +771,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
                 static_cast<float>(t.own_points) +
                     params.part_min_fraction * static_cast<float>(t.stacked_points)));
       const bool own_view = !joined && !still_joined;
+      // What the track's reference view showed was taken away: what is left is its view now,
+      // so that the size of what left does not make it keep a merge with a neighbour.
+      const bool restart_view = own_view && was_visible && taken_away(t);
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
       ++t.seen;
@@ -753,7 +788,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         t.own_points = o.num_points;
       }
       t.ref_points *= params.reference_decay;
-      if (own_view && static_cast<float>(o.num_points) >= t.ref_points) {
+      if (own_view && (restart_view || static_cast<float>(o.num_points) >= t.ref_points)) {
         t.ref_points = static_cast<float>(o.num_points);
         t.ref_box = t.box;
         if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
@@ -828,7 +863,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       const uint32_t c = frame.labels.data[i];
       prev_labels[i] = c <= cur_max_label && label_to_det[c] >= 0 ? c : 0;
       if (with_depth) {
-        prev_z[i] = cloud.xyz[i].z;
+        prev_z[i] = depth_at(i);
         front_age[i] = static_cast<uint8_t>(kNeverInFront);
       }
     }
@@ -846,9 +881,9 @@ Tracker::Tracker(const TrackerParams& params, const TemporalFilterParams& band,
 Tracker::~Tracker() = default;
 
 void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
-                     const core::PointCloudView& cloud) {
+                     const core::PointCloudView& cloud, std::span<const float> scene_z) {
   const auto t0 = std::chrono::steady_clock::now();
-  impl_->Update(frame, frame_seq, out, cloud);
+  impl_->Update(frame, frame_seq, out, cloud, scene_z);
   out->time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }

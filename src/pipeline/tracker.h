@@ -2,6 +2,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string_view>
 #include <vector>
 
@@ -220,9 +221,13 @@ class Tracker {
   /// in front of a track does not take its id (TrackerParams::surface_change_min_share) and a
   /// remembered track is reacquired only by an object that shows its remembered surface at its
   /// depth. Empty or of another size: association by masks and geometry alone (a remembered
-  /// track by its box). Never throws.
+  /// track by its box). `scene_z` is the depth of the whole scene per pixel (metres, NaN =
+  /// invalid; Segmenter::scene_depth(): before the support planes' interiors left the cloud),
+  /// which tells what changed from one frame to the next: an object taken away down to the table
+  /// shows the table's depth there, while the cloud has none. When it does not have one value
+  /// per pixel, the cloud's z. Never throws.
   void Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
-              const core::PointCloudView& cloud = {});
+              const core::PointCloudView& cloud = {}, std::span<const float> scene_z = {});
 
   /// Forgets every track (their ids are not reused) and the previous frame; the next Update
   /// reports them in ended_track_ids and sets TrackingResult::reset.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <set>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -529,6 +530,82 @@ TEST_F(TrackerDepthTest, AnObjectPutDownAgainstATrackAndJoinedToItLeavesItItsId)
     EXPECT_EQ(Ids(m), (std::vector<int64_t>{3, 2})) << k;
     EXPECT_TRUE(IsLost(m, 1)) << k;
   }
+}
+
+// The depth of the whole scene for MakeDepthFrame's `surfaces`: a table at `table_z` where
+// no surface is (the support plane, which the working cloud leaves out).
+std::vector<float> SceneDepth(const std::vector<Surface>& surfaces, float table_z, int width = 120,
+                              int height = 80) {
+  std::vector<float> z(static_cast<size_t>(width) * height, table_z);
+  for (const Surface& f : surfaces) {
+    for (int v = f.rect.v0; v < f.rect.v1; ++v) {
+      for (int u = f.rect.u0; u < f.rect.u1; ++u) z[static_cast<size_t>(v) * width + u] = f.z;
+    }
+  }
+  return z;
+}
+
+// An object lying on a small one, segmented with it; then taken away, down to the table, and
+// the small one merged with its neighbour. With the scene's depth, the track of the two
+// continues on what is left (the pixels taken away went back to the table, they were not
+// hidden) and restarts its reference view from it: the merge keeps the neighbour's id, the
+// larger object. On the cloud's depth alone (the table has none) nothing changed there, and
+// the track keeps the merge by the size of what was taken away.
+TEST(TrackerSceneDepth, WhatIsLeftOfATrackAfterAnObjectWasTakenAwayIsItsViewNow) {
+  const Surface on_top{Rect{10, 10, 40, 40}, 0.9f, 1}, small{Rect{40, 10, 50, 40}, 1.0f, 1};
+  const Surface neighbour{Rect{50, 10, 70, 40}, 1.0f, 2};
+  const Surface small_alone{small.rect, 1.0f, 1}, neighbour_alone{neighbour.rect, 1.0f, 2};
+  const Surface merged{Rect{40, 10, 70, 40}, 1.0f, 1};
+  const std::vector<std::vector<Surface>> frames = {
+      {on_top, small, neighbour}, {on_top, small, neighbour},     {on_top, small, neighbour},
+      {on_top, small, neighbour}, {small_alone, neighbour_alone}, {merged}};
+  for (const bool scene : {true, false}) {
+    Tracker dut{TrackerParams{}};
+    TrackingResult out;
+    core::PointCloud cloud;
+    for (size_t f = 0; f < frames.size(); ++f) {
+      const SegmentationResult frame = MakeDepthFrame(frames[f], &cloud);
+      const std::vector<float> scene_z = SceneDepth(frames[f], 1.1f);
+      dut.Update(frame, static_cast<int64_t>(f), &out, cloud,
+                 scene ? std::span<const float>(scene_z) : std::span<const float>());
+      if (f <= 4) {
+        ASSERT_EQ(Ids(out), (std::vector<int64_t>{1, 2})) << f << " (4: what is left continues)";
+      }
+    }
+    if (scene) {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{2})) << "the larger object keeps the merge";
+      EXPECT_TRUE(IsLost(out, 1));
+    } else {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{1}));
+      EXPECT_TRUE(IsLost(out, 2));
+    }
+  }
+}
+
+// An object hidden behind one put down in front of it is not taken away: its track keeps its
+// whole reference view (and gets its id back when the object in front leaves).
+TEST(TrackerSceneDepth, AHiddenObjectKeepsItsWholeView) {
+  const Surface a{Rect{10, 10, 40, 40}, 1.0f, 1}, b{Rect{50, 10, 60, 40}, 1.0f, 2};
+  const Surface front{Rect{10, 10, 35, 40}, 0.8f, 3}, a_rest{Rect{35, 10, 40, 40}, 1.0f, 1};
+  const Surface a_rest_merged{Rect{35, 10, 60, 40}, 1.0f, 1};
+  Tracker dut{TrackerParams{}};
+  TrackingResult out;
+  core::PointCloud cloud;
+  int64_t seq = 0;
+  auto step = [&](const std::vector<Surface>& surfaces) {
+    const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
+    const std::vector<float> scene_z = SceneDepth(surfaces, 1.1f);
+    dut.Update(frame, seq++, &out, cloud, scene_z);
+    return Ids(out);
+  };
+  for (int f = 0; f < 4; ++f) ASSERT_EQ(step({a, b}), (std::vector<int64_t>{1, 2}));
+  // Most of kA hidden: what is left of it keeps its id, the object in front is new.
+  EXPECT_EQ(step({a_rest, b, Surface{front.rect, 0.8f, 3}}), (std::vector<int64_t>{1, 2, 3}));
+  // What is left of kA merged with b (the larger now in view): kA's remembered whole view keeps
+  // the merge, as before.
+  const std::vector<int64_t> ids = step({a_rest_merged, Surface{front.rect, 0.8f, 2}});
+  EXPECT_EQ(ids, (std::vector<int64_t>{1, 3}));
+  EXPECT_TRUE(IsLost(out, 2));
 }
 
 // A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
