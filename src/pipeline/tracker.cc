@@ -236,6 +236,8 @@ struct Tracker::Impl {
   // those whose depth moved since the previous frame (changed_counts' column sums).
   std::vector<uint32_t> front_size, moved_size;
   std::vector<uint8_t> changed_track;
+  std::vector<uint8_t> by_surface;    // per track (see the association scores)
+  std::vector<uint8_t> surface_pair;  // per object, of one track: allowed by its surface alone
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
   std::vector<uint32_t> shown;
@@ -403,13 +405,19 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     return static_cast<float>(changed - came_size[t.prev_label]) >=
            params.part_min_fraction * static_cast<float>(changed);
   };
+  // A track seen in the previous frame whose pixels are mostly on no object now (hidden behind
+  // something not segmented, or an end of it gone under an occluder sweeping across it).
+  auto vanished = [&](const Track& t) {
+    return overlap && t.prev_label != 0 && prev_size[t.prev_label] > 0 &&
+           counts[t.prev_label * stride] >= params.part_min_fraction * prev_size[t.prev_label];
+  };
   // With depth: how much of each remembered track's surface every object shows; also of a
-  // track seen in the previous frame whose surface changed (an occluder crossing it may leave
-  // in view a piece of it its previous mask does not reach).
+  // track seen in the previous frame whose surface changed or vanished (an occluder crossing it
+  // may leave in view a piece of it its previous mask does not reach).
   shown.assign(with_depth ? tracks.size() * static_cast<size_t>(num_dets) : 0, 0u);
   for (size_t r = 0; r < shown.size() / std::max(num_dets, 1); ++r) {
     const Track& t = tracks[r];
-    if (have_prev && t.last_seq == prev_seq && !surface_changed(t)) continue;  // by its mask
+    if (have_prev && t.last_seq == prev_seq && !surface_changed(t) && !vanished(t)) continue;
     const uint32_t* cur = frame.labels.data.data();
     for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
       const uint32_t i = t.remembered_pixels[k];
@@ -458,10 +466,15 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   score.assign(static_cast<size_t>(num_tracks) * num_dets, 0.0);
   const double geo_weight = overlap ? 0.5 * (1.0 - params.mask_weight) : 0.5;
   const double mask_weight = overlap ? params.mask_weight : 0.0;
+  // Per track seen in the previous frame: it may take an object by its remembered surface alone
+  // (its surface changed, or it vanished with no object to continue on by its mask).
+  by_surface.assign(static_cast<size_t>(num_tracks), 0);
   for (int r = 0; r < num_tracks; ++r) {
     const Track& t = tracks[static_cast<size_t>(r)];
     const bool was_visible = have_prev && t.last_seq == prev_seq;
     const float track_diag = Diagonal(t.box);
+    bool continues = false;  // an object continues it by its mask or centroid
+    surface_pair.assign(static_cast<size_t>(num_dets), 0);
     for (int d = 0; d < num_dets; ++d) {
       const Object& o = frame.objects[static_cast<size_t>(d)];
       const Box box{o.aabb_min, o.aabb_max};
@@ -485,9 +498,11 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           const double near = std::max(0.0, 1.0 - dist / params.max_centroid_step_m);
           s = mask_weight * iou + geo_weight * (near + BoxIou(box, t.box));
           allowed = true;
+          continues = true;
         } else if (shows_surface(r, d)) {  // a piece of a covered track out of its mask's reach
           s = surface_score(r, d);
           allowed = true;
+          surface_pair[static_cast<size_t>(d)] = 1;
         }
       } else if (with_depth && !t.remembered_pixels.empty()) {
         // A remembered surface: the object shows it, at its depth, with most of its pixels.
@@ -505,6 +520,13 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         }
       }
       score[static_cast<size_t>(r) * num_dets + d] = allowed ? std::max(s, kMinScore) : 0.0;
+    }
+    if (!was_visible || shown.empty()) continue;
+    by_surface[static_cast<size_t>(r)] = surface_changed(t) || (vanished(t) && !continues);
+    if (by_surface[static_cast<size_t>(r)] || !vanished(t)) continue;
+    // A vanished track that an object continues takes no other object by its surface alone.
+    for (int d = 0; d < num_dets; ++d) {
+      if (surface_pair[static_cast<size_t>(d)]) score[static_cast<size_t>(r) * num_dets + d] = 0.0;
     }
   }
 
@@ -524,9 +546,19 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
         lost_since = std::min(lost_since, l.last_seq);
       }
     }
+    // So for a confirmed track seen in the previous frame that may take an object by its
+    // surface alone (its surface changed, or it vanished with nothing to continue on: an
+    // occluder sweeping across it hid the end it held) and whose remembered surface the object
+    // shows: no track not yet confirmed keeps the object (the other end, which showed again
+    // beside the occluder while the track still held the first, and got a track of its own).
+    bool hidden_shown = false;
+    for (int r = 0; r < num_tracks && !hidden_shown; ++r) {
+      const Track& l = tracks[static_cast<size_t>(r)];
+      hidden_shown = l.confirmed && by_surface[static_cast<size_t>(r)] && shows_surface(r, d);
+    }
     for (int v = 0; v < num_tracks; ++v) {
       const Track& t = tracks[static_cast<size_t>(v)];
-      if (!t.confirmed && t.first_seq >= lost_since)
+      if (!t.confirmed && (t.first_seq >= lost_since || hidden_shown))
         score[static_cast<size_t>(v) * num_dets + d] = 0.0;
     }
   }

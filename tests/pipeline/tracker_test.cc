@@ -446,13 +446,51 @@ TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderGetsTheObjectsIdBack) 
       Step({table, Surface{Rect{10, 10, 18, 30}, 1.0f, 1}, Surface{Rect{45, 10, 60, 30}, 1.0f, 2},
             Surface{Rect{18, 5, 45, 35}, 0.6f, 3}});
   EXPECT_EQ(Ids(both), (std::vector<int64_t>{3, 1, 2}));
-  // The right end hidden: the left end continues the new track for a frame (the object was
-  // seen in the previous frame), then shows the remembered surface as the object's own.
-  Step({table, Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 5, 65, 35}, 0.6f, 2}});
-  const TrackingResult& back =
-      Step({table, Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 5, 65, 35}, 0.6f, 2}});
-  EXPECT_EQ(back.objects[0].track_id, 1);
-  EXPECT_TRUE(back.objects[0].reacquired);
+  // The right end hidden: the left end shows the object's remembered surface, and the new track
+  // of its last frame does not keep it: the object's id in that frame, and after.
+  for (int f = 0; f < 3; ++f) {
+    const TrackingResult& back = Step(
+        {table, Surface{Rect{10, 10, 25, 30}, 1.0f, 1}, Surface{Rect{25, 5, 65, 35}, 0.6f, 2}});
+    EXPECT_EQ(back.objects[0].track_id, 1) << f;
+    EXPECT_FALSE(back.objects[0].reacquired) << f;
+  }
+}
+
+// The same with an occluder that is not segmented (too near, or without depth): the object's
+// right end leaves no changed surface behind, only pixels on no object.
+TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderWithoutDepthGetsTheObjectsIdBack) {
+  for (int f = 0; f < 4; ++f) Step({Surface{Rect{10, 10, 60, 30}, 1.0f, 1}});
+  EXPECT_EQ(Ids(Step({Surface{Rect{35, 10, 60, 30}, 1.0f, 1}})), (std::vector<int64_t>{1}));
+  // The left end shows again while the right one is in view: a new track (the object's holds the
+  // right end).
+  EXPECT_EQ(
+      Ids(Step({Surface{Rect{10, 10, 18, 30}, 1.0f, 1}, Surface{Rect{45, 10, 60, 30}, 1.0f, 2}})),
+      (std::vector<int64_t>{2, 1}));
+  // The right end gone: the left end is the object again, at once.
+  for (int f = 0; f < 3; ++f) {
+    const TrackingResult& t = Step({Surface{Rect{10, 10, 30, 30}, 1.0f, 1}});
+    EXPECT_EQ(Ids(t), (std::vector<int64_t>{1})) << f;
+    EXPECT_FALSE(t.objects[0].reacquired) << f;
+  }
+}
+
+// A track whose merge with a newcomer comes apart, the newcomer's pixels now on no object,
+// continues on its own object; a piece of its remembered surface beside it that was not in the
+// merge does not take the track by that surface.
+TEST_F(TrackerDepthTest, AVanishedTrackThatContinuesDoesNotJumpToAPieceOfItsSurface) {
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(Ids(Step({Surface{Rect{10, 10, 40, 30}, 1.0f, 1}})), (std::vector<int64_t>{1}));
+  }
+  // A newcomer against it, segmented with it; a strip of it unlabelled in this frame.
+  EXPECT_EQ(
+      Ids(Step({Surface{Rect{10, 10, 36, 30}, 1.0f, 1}, Surface{Rect{40, 10, 75, 30}, 1.0f, 1}})),
+      (std::vector<int64_t>{1}));
+  // The newcomer gone from the segmentation; the strip a segment of its own.
+  const TrackingResult& t =
+      Step({Surface{Rect{10, 10, 36, 30}, 1.0f, 1}, Surface{Rect{36, 10, 40, 30}, 1.0f, 2}});
+  ASSERT_EQ(t.objects.size(), 2u);
+  EXPECT_EQ(t.objects[0].track_id, 1);
+  EXPECT_NE(t.objects[1].track_id, 1);
 }
 
 // An object put down across a long object on a table cuts it into two halves and a sliver
