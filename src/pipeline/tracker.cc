@@ -26,6 +26,11 @@ struct Box {
 // halves of an object cut by one put down across it does not.
 constexpr float kOwnPartMinShare = 0.25f;
 
+// A merge goes to the track with more than this many times the pixels in the object of every
+// other track it absorbed, before the size of their remembered views is compared: sizes in view
+// that differ by less flip with the segmentation's noise, and the remembered size holds still.
+constexpr uint32_t kMergeInViewFactor = 2;
+
 // The saturated value of a pixel's frames since its surface came in front (StepDepths).
 constexpr int32_t kNeverInFront = 255;
 
@@ -591,7 +596,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
   // the part with the most points keeps it (with split_own_margin_m, the part nearest the
   // track's own centroid, when clearly nearest). Merges: a track whose previous mask lies mostly
-  // on one object is absorbed by it; only the largest of those tracks keeps the object.
+  // on one object is absorbed by it; only the largest of those tracks keeps the object (the one
+  // clearly most in view, when one is).
   // A part may keep the track by lying nearest its own centroid only when it holds
   // kOwnPartMinShare of the track's own view: a sliver of an object cut in two by one put down
   // across it lies nearer its centroid than either half.
@@ -686,10 +692,16 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
           continue;
         }
         const Track& b = tracks[static_cast<size_t>(best)];
-        // The larger object: its largest recent view (a track seen partly hidden keeps the
-        // size it had), then the larger overlap; the older track on a tie.
+        // The track with more than kMergeInViewFactor times the other's pixels in the object
+        // (the other mostly hidden: the segment is mostly this one in view); else the larger
+        // object: its largest recent view (a track seen partly hidden keeps the size it had),
+        // then the larger overlap; the older track on a tie.
         const uint32_t ib = part_inter(best, d);
-        if (t.ref_points > b.ref_points || (t.ref_points == b.ref_points && i > ib)) best = r;
+        const bool more = i > kMergeInViewFactor * ib, less = ib > kMergeInViewFactor * i;
+        if (more ||
+            (!less && (t.ref_points > b.ref_points || (t.ref_points == b.ref_points && i > ib)))) {
+          best = r;
+        }
       }
       if (absorbed < 2) continue;
       ++out->counts.merges;

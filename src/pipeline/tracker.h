@@ -58,9 +58,10 @@ struct TrackerParams {
   /// its own pixels is a part of that track; when a track has several parts, only the part
   /// with the most points keeps the track (the others get other or new ids). A track whose
   /// previous mask lies on one object by at least this share is absorbed by it; when an
-  /// object absorbs several tracks, only the largest track (by the point count of its largest
-  /// recent view, see reference_decay; then by overlap) keeps the object and the others become
-  /// lost-but-remembered (0.5..1).
+  /// object absorbs several tracks, only one keeps the object and the others become
+  /// lost-but-remembered: the track with more than twice the pixels of each other in the object
+  /// (the others mostly hidden), else the largest track (by the point count of its largest
+  /// recent view, see reference_decay; then by overlap) (0.5..1).
   float part_min_fraction{0.5f};
   /// Splits: when > 0, the part whose centroid lies nearer by more than this (metres) to the
   /// track's own last centroid keeps the track when it holds a quarter of the track's own view

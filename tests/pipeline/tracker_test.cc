@@ -493,6 +493,24 @@ TEST_F(TrackerDepthTest, AVanishedTrackThatContinuesDoesNotJumpToAPieceOfItsSurf
   EXPECT_NE(t.objects[1].track_id, 1);
 }
 
+// A large object mostly hidden (by something the segmentation leaves out) merges with a
+// smaller neighbour: the segment is mostly the neighbour in view, and the neighbour's track
+// keeps it, not the track of the largest remembered view.
+TEST_F(TrackerDepthTest, AMergeGoesToTheTrackClearlyMostInView) {
+  const Surface small{Rect{45, 10, 55, 40}, 1.0f, 2};
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(Ids(Step({Surface{Rect{10, 10, 40, 40}, 1.0f, 1}, small})),
+              (std::vector<int64_t>{1, 2}));
+  }
+  const Surface rest{Rect{36, 10, 40, 35}, 1.0f, 1};  // 100 of its 900 pixels
+  EXPECT_EQ(Ids(Step({rest, small})), (std::vector<int64_t>{1, 2}));
+  for (int f = 0; f < 2; ++f) {
+    const TrackingResult& t = Step({rest, Surface{small.rect, 1.0f, 1}});
+    EXPECT_EQ(Ids(t), (std::vector<int64_t>{2})) << f;
+    EXPECT_TRUE(IsLost(t, 1)) << f;
+  }
+}
+
 // An object put down across a long object on a table cuts it into two halves and a sliver
 // below the newcomer, nearer the object's centroid than either half: a half keeps the id.
 TEST_F(TrackerDepthTest, ASliverOfAnObjectCutInTwoDoesNotKeepItsId) {
