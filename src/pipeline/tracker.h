@@ -192,8 +192,10 @@ struct TrackingResult {
 /// order), or their centroids are close and their sizes alike; a lost track only when the
 /// object shows its remembered surface at its depth (with the frame's depth) or lies in its
 /// remembered box (without). With depth, a track whose mask mostly shows a new surface in front
-/// of it (or lost what it showed) continues only on what is left of it. Splits keep the id on the
-/// largest part, merges on the largest track (see TrackerParams::part_min_fraction).
+/// of it (or lost what it showed) continues only on what is left of it, and restarts its
+/// reference view from it when what it showed was taken away. Splits keep the id on the largest
+/// part, merges on the track clearly most in view, else the largest (see
+/// TrackerParams::part_min_fraction).
 ///
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).
