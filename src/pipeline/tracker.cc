@@ -290,13 +290,22 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   // The frame's depth, in the labels' layout.
   const bool with_depth = num_pixels > 0 && cloud.size() == num_pixels;
   const bool compare_depth = overlap && with_depth && prev_z.size() == num_pixels;
-  // The depth the steps compare: the whole scene's when given (a surface taken away down to a
-  // support plane shows its depth there), else the cloud's.
+  // Pixels [b, e) through StepDepths on the whole scene's depth when given (a surface taken
+  // away down to a support plane shows its depth there), else the cloud's; one loop per depth
+  // source, so each vectorises.
   const bool scene = with_depth && scene_z.size() == num_pixels;
-  const float* scene_depth = scene_z.data();
-  const core::Vec3f* cloud_xyz = cloud.xyz.data();
-  auto depth_at = [scene, scene_depth, cloud_xyz](size_t i) {
-    return scene ? scene_depth[i] : cloud_xyz[i].z;
+  auto step_depths = [&](size_t b, size_t e, bool compare) {
+    if (scene) {
+      const float* z = scene_z.data() + b;
+      StepDepths(
+          e - b, [z](size_t k) { return z[k]; }, params.surface_change_min_step_m, band, compare,
+          prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
+    } else if (with_depth) {
+      const core::Vec3f* xyz = cloud.xyz.data() + b;
+      StepDepths(
+          e - b, [xyz](size_t k) { return xyz[k].z; }, params.surface_change_min_step_m, band,
+          compare, prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
+    }
   };
   if (with_depth && prev_z.size() != num_pixels) {
     prev_z.assign(num_pixels, 0.f);
@@ -335,42 +344,30 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     const size_t nearer_table = compare_depth ? stride : 0;
     const size_t came_table = compare_depth ? static_cast<size_t>(prev_max_label) + 1 : 0;
     overlap_tables.assign(table + changed_counts.size() + 2 * nearer_table + came_table, 0u);
-    core::CountInChunks(
-        pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
-        overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
-          uint32_t* both = tables;  // this chunk's overlap counts
-          uint32_t* changed = tables + table;
-          uint32_t* nearer = changed + changed_counts.size();
-          uint32_t* front = nearer + nearer_table;
-          uint32_t* came = front + nearer_table;
-          // Two loops, one per depth source: each vectorises.
-          if (scene) {
-            const float* z = scene_depth + b;
-            StepDepths(
-                e - b, [z](size_t k) { return z[k]; }, params.surface_change_min_step_m, band,
-                compare_depth, prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
-          } else if (with_depth) {
-            const core::Vec3f* xyz = cloud_xyz + b;
-            StepDepths(
-                e - b, [xyz](size_t k) { return xyz[k].z; }, params.surface_change_min_step_m, band,
-                compare_depth, prev_z.data() + b, depth_changed.data() + b, front_age.data() + b);
-          }
-          core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
-            const size_t i = b + j;
-            const uint32_t p = prev[i];
-            uint32_t c = cur[i];
-            if ((p | c) == 0) return;
-            // A label without an object is background.
-            if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
-            prev[i] = c;
-            ++both[p * stride + c];
-            if (!compare_depth) return;
-            changed[p * stride + c] += moved[i] & 1u;
-            nearer[c] += moved[i] >> 1;
-            came[p] += moved[i] >> 1;
-            front[c] += age[i] <= recent;
-          });
-        });
+    core::CountInChunks(pool, num_pixels, core::kPixelGrain, overlap_tables.size(), &chunk_tables,
+                        overlap_tables.data(), [&](size_t b, size_t e, uint32_t* tables) {
+                          uint32_t* both = tables;  // this chunk's overlap counts
+                          uint32_t* changed = tables + table;
+                          uint32_t* nearer = changed + changed_counts.size();
+                          uint32_t* front = nearer + nearer_table;
+                          uint32_t* came = front + nearer_table;
+                          step_depths(b, e, compare_depth);
+                          core::ForEachLabelled(prev + b, cur + b, e - b, [&](size_t j) {
+                            const size_t i = b + j;
+                            const uint32_t p = prev[i];
+                            uint32_t c = cur[i];
+                            if ((p | c) == 0) return;
+                            // A label without an object is background.
+                            if (c > cur_max_label || (!contiguous && label_to_det[c] < 0)) c = 0;
+                            prev[i] = c;
+                            ++both[p * stride + c];
+                            if (!compare_depth) return;
+                            changed[p * stride + c] += moved[i] & 1u;
+                            nearer[c] += moved[i] >> 1;
+                            came[p] += moved[i] >> 1;
+                            front[c] += age[i] <= recent;
+                          });
+                        });
     std::copy(overlap_tables.begin(), overlap_tables.begin() + static_cast<ptrdiff_t>(table),
               counts.begin());
     const auto nearer_begin =
@@ -527,8 +524,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       score[static_cast<size_t>(r) * num_dets + d] = allowed ? std::max(s, kMinScore) : 0.0;
     }
     if (!was_visible || shown.empty()) continue;
-    by_surface[static_cast<size_t>(r)] = surface_changed(t) || (vanished(t) && !continues);
-    if (by_surface[static_cast<size_t>(r)] || !vanished(t)) continue;
+    const bool gone = vanished(t);
+    by_surface[static_cast<size_t>(r)] = surface_changed(t) || (gone && !continues);
+    if (by_surface[static_cast<size_t>(r)] || !gone) continue;
     // A vanished track that an object continues takes no other object by its surface alone.
     for (int d = 0; d < num_dets; ++d) {
       if (surface_pair[static_cast<size_t>(d)]) score[static_cast<size_t>(r) * num_dets + d] = 0.0;
@@ -817,7 +815,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       const bool own_view = !joined && !still_joined;
       // What the track's reference view showed was taken away: what is left is its view now,
       // so that the size of what left does not make it keep a merge with a neighbour.
-      const bool restart_view = own_view && was_visible && taken_away(t);
+      const bool restart_view = own_view && taken_away(t);
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
       ++t.seen;
@@ -906,11 +904,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     for (size_t i = 0; i < num_pixels; ++i) {
       const uint32_t c = frame.labels.data[i];
       prev_labels[i] = c <= cur_max_label && label_to_det[c] >= 0 ? c : 0;
-      if (with_depth) {
-        prev_z[i] = depth_at(i);
-        front_age[i] = static_cast<uint8_t>(kNeverInFront);
-      }
     }
+    if (with_depth) depth_changed.resize(num_pixels);
+    step_depths(0, num_pixels, false);  // this frame's depths for the next one
   }
   prev_max_label = cur_max_label;
   prev_width = frame.labels.width;
