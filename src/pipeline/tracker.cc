@@ -119,6 +119,7 @@ void TrackerParams::ValidateOrThrow() const {
   check.InRange("confirm_frames", confirm_frames, 1, 1000);
   check.InRange("memory_frames", memory_frames, 0, 100000);
   check.InRange("tentative_memory_frames", tentative_memory_frames, 0, memory_frames);
+  check.InRange("hidden_memory_frames", hidden_memory_frames, 0, 1000000, "(0 = off)");
   check.Require(min_mask_overlap > 0.f && min_mask_overlap <= 1.f, "min_mask_overlap",
                 min_mask_overlap, "a share in (0, 1]");
   check.Require(max_centroid_step_m > 0.f && max_centroid_step_m <= 10.f, "max_centroid_step_m",
@@ -773,6 +774,20 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     return false;
   };
 
+  // Whether most of a track's remembered surface is hidden behind something nearer now.
+  auto hidden = [&](const Track& t) {
+    if (!with_depth || t.remembered_pixels.empty()) return false;
+    uint32_t behind = 0;
+    for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
+      const uint32_t i = t.remembered_pixels[k];
+      if (i >= num_pixels) continue;
+      const float z = scene ? scene_z[i] : cloud.xyz[i].z, before = t.remembered_z[k];
+      behind += before - z >= std::max(params.surface_change_min_step_m, band.BandAt(before));
+    }
+    return static_cast<float>(behind) >=
+           params.part_min_fraction * static_cast<float>(t.remembered_pixels.size());
+  };
+
   // Update the matched tracks, age the others, end the expired ones.
   kept.clear();
   for (int r = 0; r < num_tracks; ++r) {
@@ -847,7 +862,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     t.prev_label = 0;
     const int64_t since = seq - t.last_seq;
     const int memory = t.confirmed ? params.memory_frames : params.tentative_memory_frames;
-    if (since > memory) {
+    if (since > memory && !(t.confirmed && since <= params.hidden_memory_frames && hidden(t))) {
       out->ended_track_ids.push_back(t.id);
       continue;
     }

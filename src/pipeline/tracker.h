@@ -32,6 +32,12 @@ struct TrackerParams {
   /// The same for a track that was not yet confirmed (0 = it ends in the first frame it is
   /// not seen in, so a short-lived spurious object leaves no memory behind).
   int tentative_memory_frames{0};
+  /// With the frame's depth (Update's `scene_z` or `cloud`), a confirmed track past
+  /// memory_frames is still remembered while most of its remembered surface is hidden behind
+  /// something nearer than it (an object put down on it, an occluder standing in front), up to
+  /// this many frames after it was last seen; it ends in the first frame its surface is not
+  /// mostly hidden (in view under another object's id, or taken away). 0 = off.
+  int hidden_memory_frames{900};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).

@@ -664,6 +664,52 @@ TEST(TrackerSceneDepth, AHiddenObjectKeepsItsWholeView) {
   EXPECT_TRUE(IsLost(out, 2));
 }
 
+// A tracker with the scene's depth, memory_frames 5 and the given hidden_memory_frames: kA
+// and kB for four frames, then `middle` for twenty frames, then kA and kB again. Returns the
+// ids of the last frame; `ended_at` is the frame kA's track ended in (-1: never).
+std::vector<int64_t> HiddenMemoryRun(int hidden_memory_frames, const std::vector<Surface>& middle,
+                                     int64_t* ended_at) {
+  TrackerParams params;
+  params.memory_frames = 5;
+  params.hidden_memory_frames = hidden_memory_frames;
+  Tracker dut{params};
+  TrackingResult out;
+  core::PointCloud cloud;
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  *ended_at = -1;
+  for (int64_t f = 0; f < 25; ++f) {
+    const std::vector<Surface> surfaces = f < 4 || f == 24 ? std::vector<Surface>{a, b} : middle;
+    const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
+    dut.Update(frame, f, &out, cloud, SceneDepth(surfaces, 1.1f));
+    if (Ended(out, 1)) *ended_at = f;
+  }
+  return Ids(out);
+}
+
+// A box put down over kA hides it for twenty frames, longer than memory_frames: with
+// hidden_memory_frames kA's track stays remembered while its surface is hidden and kA gets its
+// id back when the box is taken away; without, it ends and kA comes back under a new id.
+TEST(TrackerHiddenMemory, AnObjectHiddenLongerThanTheMemoryGetsItsIdBack) {
+  const std::vector<Surface> box_on_a = {Surface{Rect{8, 8, 32, 32}, 0.9f, 1},
+                                         Surface{kB, 1.0f, 2}};
+  int64_t ended_at = 0;
+  EXPECT_EQ(HiddenMemoryRun(100, box_on_a, &ended_at), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(ended_at, -1);
+  EXPECT_EQ(HiddenMemoryRun(0, box_on_a, &ended_at), (std::vector<int64_t>{4, 2}));
+  EXPECT_EQ(ended_at, 9) << "last seen in frame 3, remembered for 5 frames";
+  // ... but not past hidden_memory_frames after it was last seen.
+  EXPECT_EQ(HiddenMemoryRun(15, box_on_a, &ended_at), (std::vector<int64_t>{4, 2}));
+  EXPECT_EQ(ended_at, 19);
+}
+
+// kA taken away (the table shows where it lay): its surface is not hidden, so its track ends
+// after memory_frames whatever hidden_memory_frames.
+TEST(TrackerHiddenMemory, AnObjectTakenAwayEndsAfterTheMemory) {
+  int64_t ended_at = 0;
+  EXPECT_EQ(HiddenMemoryRun(100, {Surface{kB, 1.0f, 1}}, &ended_at), (std::vector<int64_t>{3, 2}));
+  EXPECT_EQ(ended_at, 9);
+}
+
 // A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
 class JoinedViewRun {
  public:
@@ -859,6 +905,9 @@ TEST(TrackerParams, ValidationNamesTheKey) {
   p = {};
   p.tentative_memory_frames = p.memory_frames + 1;
   expect_key(p, "tentative_memory_frames");
+  p = {};
+  p.hidden_memory_frames = -1;
+  expect_key(p, "hidden_memory_frames");
   p = {};
   p.min_mask_overlap = 0.f;
   expect_key(p, "min_mask_overlap");
