@@ -163,6 +163,9 @@ struct Tracker::Impl {
     uint32_t own_points{0};      // of that view
     int64_t joined_seq{-1};      // the last frame a new surface joined its view (-1: never)
     uint32_t stacked_points{0};  // of that view, the pixels that came in front (0: none)
+    // The track whose segment this one began on, a newcomer joined to it (-1: none): the
+    // other's remembered surface is not this one's (LeaveOutSurface).
+    int64_t newcomer_of{-1};
   };
 
   Impl(const TrackerParams& p, const TemporalFilterParams& b, core::ThreadPool* q)
@@ -210,6 +213,27 @@ struct Tracker::Impl {
     }
   }
 
+  // Removes from `t`'s remembered surface the pixels of `other`'s at about the same depth
+  // (within the depth band); both are in increasing pixel order.
+  void LeaveOutSurface(const Track& other, Track* t) const {
+    const std::vector<uint32_t>& op = other.remembered_pixels;
+    size_t j = 0, left = 0;
+    for (size_t k = 0; k < t->remembered_pixels.size(); ++k) {
+      const uint32_t i = t->remembered_pixels[k];
+      const float z = t->remembered_z[k];
+      while (j < op.size() && op[j] < i) ++j;
+      if (j < op.size() && op[j] == i &&
+          std::fabs(z - other.remembered_z[j]) <= band.BandAt(other.remembered_z[j])) {
+        continue;
+      }
+      t->remembered_pixels[left] = i;
+      t->remembered_z[left] = z;
+      ++left;
+    }
+    t->remembered_pixels.resize(left);
+    t->remembered_z.resize(left);
+  }
+
   TrackerParams params;
   TemporalFilterParams band;
   core::ThreadPool* pool;     // may be null: the per-pixel passes in chunks
@@ -242,8 +266,9 @@ struct Tracker::Impl {
   // those whose depth moved since the previous frame (changed_counts' column sums).
   std::vector<uint32_t> front_size, moved_size;
   std::vector<uint8_t> changed_track;
-  std::vector<uint8_t> by_surface;    // per track (see the association scores)
-  std::vector<uint8_t> surface_pair;  // per object, of one track: allowed by its surface alone
+  std::vector<uint8_t> by_surface;     // per track (see the association scores)
+  std::vector<int64_t> newcomer_from;  // per object: the track it is a newcomer on (-1: none)
+  std::vector<uint8_t> surface_pair;   // per object, of one track: allowed by its surface alone
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
   std::vector<uint32_t> shown;
@@ -716,6 +741,30 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
   }
 
+  // An object made mostly of a newcomer: more than kMergeInViewFactor times as many of its
+  // pixels came in front of what was there in this frame (an object put down against a
+  // track's and segmented with it) as it holds of an old track whose surface stayed. The
+  // segment is the newcomer's, as a merge goes to the track clearly most in view; the track is
+  // remembered and takes its surface back when it shows apart.
+  newcomer_from.assign(static_cast<size_t>(num_dets), -1);
+  if (compare_depth && params.newcomer_merge) {
+    for (int r = 0; r < num_tracks; ++r) {
+      const Track& t = tracks[static_cast<size_t>(r)];
+      if (t.prev_label == 0 || !t.confirmed || seq - t.first_seq <= params.joined_view_frames ||
+          surface_changed(t)) {
+        continue;
+      }
+      for (int d = 0; d < num_dets; ++d) {
+        const uint32_t id = frame.objects[static_cast<size_t>(d)].id;
+        double& s = score[static_cast<size_t>(r) * num_dets + d];
+        if (s > 0.0 && nearer_size[id] > kMergeInViewFactor * unchanged(t, d)) {
+          s = 0.0;
+          newcomer_from[static_cast<size_t>(d)] = t.id;
+        }
+      }
+    }
+  }
+
   // An object that continues a confirmed visible track (most of the track's previous mask,
   // lying mostly on it or a merge the track keeps; when the track split, the part nearest its
   // own centroid) is not reacquired by a remembered track.
@@ -886,6 +935,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
     t.own_centroid = o.centroid;
     t.own_points = o.num_points;
+    t.newcomer_of = newcomer_from[static_cast<size_t>(d)];
     ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
     ot.track_id = t.id;
     ot.age_frames = 0;
@@ -896,6 +946,19 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     kept.push_back(std::move(t));
   }
   tracks.swap(kept);
+  // A track begun on a newcomer's segment leaves out of its remembered surface what the track
+  // it joined remembers, until that one is seen again or ends.
+  for (Track& t : tracks) {
+    if (t.newcomer_of < 0) continue;
+    const auto old = std::find_if(tracks.begin(), tracks.end(),
+                                  [&](const Track& o) { return o.id == t.newcomer_of; });
+    if (old == tracks.end()) {
+      t.newcomer_of = -1;
+      continue;
+    }
+    LeaveOutSurface(*old, &t);
+    if (old->last_seq == seq) t.newcomer_of = -1;
+  }
 
   for (const Track& t : tracks) {
     if (t.last_seq == seq) continue;

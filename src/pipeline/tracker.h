@@ -38,6 +38,14 @@ struct TrackerParams {
   /// this many frames after it was last seen; it ends in the first frame its surface is not
   /// mostly hidden (in view under another object's id, or taken away). 0 = off.
   int hidden_memory_frames{900};
+  /// With the frame's depth: an object more than twice as many of whose pixels came in front
+  /// of what was there in this frame (surface_change_min_step_m) as it holds of a confirmed
+  /// track older than joined_view_frames whose surface stayed (a newcomer put down against the
+  /// track's object and segmented with it) is not that track's: it gets a new track, which
+  /// leaves the old one's remembered surface out of its own until the old one is seen again or
+  /// ends, and the old track is remembered and takes its surface back when it shows apart (as a
+  /// merge goes to the track clearly most in view). false = the old track keeps the segment.
+  bool newcomer_merge{true};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).
@@ -201,7 +209,8 @@ struct TrackingResult {
 /// of it (or lost what it showed) continues only on what is left of it, and restarts its
 /// reference view from it when what it showed was taken away. Splits keep the id on the largest
 /// part, merges on the track clearly most in view, else the largest (see
-/// TrackerParams::part_min_fraction).
+/// TrackerParams::part_min_fraction); a segment mostly of a newcomer put down against a track's
+/// object is the newcomer's (TrackerParams::newcomer_merge).
 ///
 /// Thread-safety: one Tracker per camera; Update is not reentrant and must be called once
 /// per frame in frame order (from one thread at a time, e.g. an ordered completion step).

@@ -710,6 +710,42 @@ TEST(TrackerHiddenMemory, AnObjectTakenAwayEndsAfterTheMemory) {
   EXPECT_EQ(ended_at, 9);
 }
 
+// kA and kB on a table for twelve frames (older than joined_view_frames), then a newcomer of
+// `newcomer_rect` at 0.95 m put down against kA and segmented with it for four frames, then cut
+// off. Returns the ids of every frame from the newcomer's first (kA or the merge, kB, and the
+// newcomer once cut off).
+std::vector<std::vector<int64_t>> NewcomerRun(const Rect& newcomer_rect) {
+  Tracker dut{TrackerParams{}};
+  TrackingResult out;
+  core::PointCloud cloud;
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  std::vector<std::vector<int64_t>> ids;
+  for (int64_t f = 0; f < 18; ++f) {
+    std::vector<Surface> surfaces = {a, b};
+    if (f >= 12) surfaces.push_back(Surface{newcomer_rect, 0.95f, f < 16 ? 1u : 3u});
+    const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
+    dut.Update(frame, f, &out, cloud, SceneDepth(surfaces, 1.1f));
+    if (f >= 12) ids.push_back(Ids(out));
+  }
+  return ids;
+}
+
+// A newcomer more than twice kA's size, segmented with it: the segment is mostly the newcomer
+// and gets a new id, which the newcomer keeps once cut off; kA, remembered, gets its id back.
+TEST(TrackerNewcomer, ASegmentMostlyOfANewcomerIsTheNewcomers) {
+  const std::vector<std::vector<int64_t>> ids = NewcomerRun(Rect{30, 10, 60, 40});  // 900 px
+  for (size_t f = 0; f < 4; ++f) EXPECT_EQ(ids[f], (std::vector<int64_t>{3, 2})) << f;
+  EXPECT_EQ(ids[4], (std::vector<int64_t>{1, 2, 3}));
+  EXPECT_EQ(ids[5], (std::vector<int64_t>{1, 2, 3}));
+}
+
+// A newcomer under twice kA's size: kA's track keeps the segment, as before.
+TEST(TrackerNewcomer, ASegmentNotMostlyOfANewcomerKeepsTheTracksId) {
+  const std::vector<std::vector<int64_t>> ids = NewcomerRun(Rect{30, 10, 50, 40});  // 600 px
+  for (size_t f = 0; f < 4; ++f) EXPECT_EQ(ids[f], (std::vector<int64_t>{1, 2})) << f;
+  EXPECT_EQ(ids[5], (std::vector<int64_t>{1, 2, 3}));
+}
+
 // A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
 class JoinedViewRun {
  public:
