@@ -120,6 +120,7 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.tentative_memory_frames", &C::tracker, &T::tentative_memory_frames),
           MakeKey("tracker.hidden_memory_frames", &C::tracker, &T::hidden_memory_frames),
           MakeKey("tracker.newcomer_merge", &C::tracker, &T::newcomer_merge),
+          MakeKey("tracker.tentative_merge_memory", &C::tracker, &T::tentative_merge_memory),
           MakeKey("tracker.min_mask_overlap", &C::tracker, &T::min_mask_overlap),
           MakeKey("tracker.max_centroid_step_m", &C::tracker, &T::max_centroid_step_m),
           MakeKey("tracker.max_size_ratio", &C::tracker, &T::max_size_ratio),

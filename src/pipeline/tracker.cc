@@ -166,6 +166,9 @@ struct Tracker::Impl {
     // The track whose segment this one began on, a newcomer joined to it (-1: none): the
     // other's remembered surface is not this one's (LeaveOutSurface).
     int64_t newcomer_of{-1};
+    // A track not yet confirmed absorbed in a merge whose keeper was not clearly more in view:
+    // remembered like a confirmed one, for joined_view_frames frames.
+    bool absorbed_tentative{false};
   };
 
   Impl(const TrackerParams& p, const TemporalFilterParams& b, core::ThreadPool* q)
@@ -234,6 +237,14 @@ struct Tracker::Impl {
     t->remembered_z.resize(left);
   }
 
+  // Frames a track is remembered after it was last seen.
+  int MemoryFrames(const Track& t) const {
+    if (t.confirmed) return params.memory_frames;
+    return t.absorbed_tentative
+               ? std::max(params.tentative_memory_frames, params.joined_view_frames)
+               : params.tentative_memory_frames;
+  }
+
   TrackerParams params;
   TemporalFilterParams band;
   core::ThreadPool* pool;     // may be null: the per-pixel passes in chunks
@@ -266,9 +277,10 @@ struct Tracker::Impl {
   // those whose depth moved since the previous frame (changed_counts' column sums).
   std::vector<uint32_t> front_size, moved_size;
   std::vector<uint8_t> changed_track;
-  std::vector<uint8_t> by_surface;     // per track (see the association scores)
-  std::vector<int64_t> newcomer_from;  // per object: the track it is a newcomer on (-1: none)
-  std::vector<uint8_t> surface_pair;   // per object, of one track: allowed by its surface alone
+  std::vector<uint8_t> by_surface;      // per track (see the association scores)
+  std::vector<int64_t> newcomer_from;   // per object: the track it is a newcomer on (-1: none)
+  std::vector<uint8_t> keep_tentative;  // per track: absorbed_tentative from this frame
+  std::vector<uint8_t> surface_pair;    // per object, of one track: allowed by its surface alone
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
   std::vector<uint32_t> shown;
@@ -587,7 +599,10 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
     for (int v = 0; v < num_tracks; ++v) {
       const Track& t = tracks[static_cast<size_t>(v)];
-      if (!t.confirmed && (t.first_seq >= lost_since || hidden_shown))
+      // (A remembered track not yet confirmed is one of the tracks showing again.)
+      const bool remembered_tentative =
+          t.absorbed_tentative && !(have_prev && t.last_seq == prev_seq);
+      if (!t.confirmed && !remembered_tentative && (t.first_seq >= lost_since || hidden_shown))
         score[static_cast<size_t>(v) * num_dets + d] = 0.0;
     }
   }
@@ -616,6 +631,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   };
 
   merged_det.assign(static_cast<size_t>(num_dets), 0);
+  keep_tentative.assign(static_cast<size_t>(num_tracks), 0);
   split_by_size.assign(static_cast<size_t>(num_tracks), 0);
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
   // the part with the most points keeps it (with split_own_margin_m, the part nearest the
@@ -730,12 +746,16 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (absorbed < 2) continue;
       ++out->counts.merges;
       merged_det[static_cast<size_t>(d)] = 1;
+      const uint32_t ib = part_inter(best, d);
       for (int r = 0; r < num_tracks; ++r) {
         const Track& t = tracks[static_cast<size_t>(r)];
         if (r == best || t.prev_label == 0) continue;
         const uint32_t i = part_inter(r, d);
         if (i > 0 && i >= params.part_min_fraction * prev_size[t.prev_label]) {
           score[static_cast<size_t>(r) * num_dets + d] = 0.0;
+          if (params.tentative_merge_memory && !t.confirmed && ib <= kMergeInViewFactor * i) {
+            keep_tentative[static_cast<size_t>(r)] = 1;
+          }
         }
       }
     }
@@ -816,7 +836,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     for (int q = 0; q < num_tracks; ++q) {
       if (q == r || row_to_col[static_cast<size_t>(q)] >= 0) continue;
       const Track& l = tracks[static_cast<size_t>(q)];
-      const int memory = l.confirmed ? params.memory_frames : params.tentative_memory_frames;
+      const int memory = MemoryFrames(l);
       if (seq - l.last_seq > memory) continue;
       if (DistanceToBox(l.own_centroid, box) == 0.f) return true;
     }
@@ -882,6 +902,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       const bool restart_view = own_view && taken_away(t);
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
+      t.absorbed_tentative = false;
       ++t.seen;
       t.confirmed = t.confirmed || t.seen >= params.confirm_frames;
       t.prev_label = o.id;
@@ -910,7 +931,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
     t.prev_label = 0;
     const int64_t since = seq - t.last_seq;
-    const int memory = t.confirmed ? params.memory_frames : params.tentative_memory_frames;
+    if (keep_tentative[static_cast<size_t>(r)]) t.absorbed_tentative = true;
+    const int memory = MemoryFrames(t);
     if (since > memory && !(t.confirmed && since <= params.hidden_memory_frames && hidden(t))) {
       out->ended_track_ids.push_back(t.id);
       continue;

@@ -46,6 +46,12 @@ struct TrackerParams {
   /// ends, and the old track is remembered and takes its surface back when it shows apart (as a
   /// merge goes to the track clearly most in view). false = the old track keeps the segment.
   bool newcomer_merge{true};
+  /// A track not yet confirmed that is absorbed in a merge whose keeper holds at most twice its
+  /// pixels in the segment (an object put down against another, one segment with it before its
+  /// track was confirmed) is remembered for max(tentative_memory_frames, joined_view_frames)
+  /// frames, and takes its id back when it shows apart (with depth, by its remembered surface).
+  /// false = it ends as any track not yet confirmed (tentative_memory_frames).
+  bool tentative_merge_memory{true};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).
@@ -162,11 +168,11 @@ struct LostTrack {
   int32_t frames_since_seen{0};  ///< >= 1
   int32_t age_frames{0};         ///< frames since the track was first seen
   int32_t seen_frames{0};
-  TrackState state{TrackState::kLost};         ///< always kLost
-  bool was_confirmed{false};                   ///< false only with tentative_memory_frames > 0
-  uint32_t num_points{0};                      ///< of the last view
-  core::Vec3f centroid;                        ///< of the last view
-  core::Vec3f aabb_min, aabb_max;              ///< axis-aligned box of the last view
+  TrackState state{TrackState::kLost};  ///< always kLost
+  bool was_confirmed{false};       ///< false: tentative_memory_frames > 0 or tentative_merge_memory
+  uint32_t num_points{0};          ///< of the last view
+  core::Vec3f centroid;            ///< of the last view
+  core::Vec3f aabb_min, aabb_max;  ///< axis-aligned box of the last view
   core::Vec3f remembered_min, remembered_max;  ///< the box used for reacquisition
 };
 

@@ -746,6 +746,40 @@ TEST(TrackerNewcomer, ASegmentNotMostlyOfANewcomerKeepsTheTracksId) {
   EXPECT_EQ(ids[5], (std::vector<int64_t>{1, 2, 3}));
 }
 
+// kA and kB for twelve frames; a newcomer of 300 pixels put down against kA (400) is an object
+// of its own for one frame, then one segment with kA for four frames (kA's track keeps the merge,
+// the newcomer's, not yet confirmed, is absorbed), then apart again. Returns the newcomer's id
+// in its first frame and once apart.
+std::pair<int64_t, int64_t> TentativeMergeRun(bool tentative_merge_memory) {
+  TrackerParams params;
+  params.tentative_merge_memory = tentative_merge_memory;
+  Tracker dut{params};
+  TrackingResult out;
+  core::PointCloud cloud;
+  const Surface a{kA, 1.0f, 1}, b{kB, 1.0f, 2};
+  const Rect newcomer{30, 10, 45, 30};
+  std::pair<int64_t, int64_t> ids{0, 0};
+  for (int64_t f = 0; f < 19; ++f) {
+    std::vector<Surface> surfaces = {a, b};
+    if (f >= 12) surfaces.push_back(Surface{newcomer, 1.0f, f >= 13 && f < 17 ? 1u : 3u});
+    const SegmentationResult frame = MakeDepthFrame(surfaces, &cloud);
+    dut.Update(frame, f, &out, cloud, SceneDepth(surfaces, 1.1f));
+    if (f == 12) ids.first = out.objects.at(2).track_id;
+    if (f == 18) ids.second = out.objects.at(2).track_id;
+    if (f >= 13 && f < 17) {
+      EXPECT_EQ(Ids(out), (std::vector<int64_t>{1, 2})) << f;
+    }
+  }
+  return ids;
+}
+
+// With tentative_merge_memory the newcomer's track is remembered through the merge and the
+// newcomer gets its first id back; without, a new one.
+TEST(TrackerTentativeMerge, ANewcomerAbsorbedBeforeItWasConfirmedGetsItsIdBack) {
+  EXPECT_EQ(TentativeMergeRun(true), (std::pair<int64_t, int64_t>{3, 3}));
+  EXPECT_EQ(TentativeMergeRun(false), (std::pair<int64_t, int64_t>{3, 4}));
+}
+
 // A tracker with the frame's depth and the given joined_view_frames, one frame per Step.
 class JoinedViewRun {
  public:
