@@ -599,10 +599,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     }
     for (int v = 0; v < num_tracks; ++v) {
       const Track& t = tracks[static_cast<size_t>(v)];
-      // (A remembered track not yet confirmed is one of the tracks showing again.)
-      const bool remembered_tentative =
-          t.absorbed_tentative && !(have_prev && t.last_seq == prev_seq);
-      if (!t.confirmed && !remembered_tentative && (t.first_seq >= lost_since || hidden_shown))
+      // A track not yet confirmed remembered after a merge (never seen since: the flag is
+      // cleared when it is) is one of the tracks showing again, not a new one.
+      if (!t.confirmed && !t.absorbed_tentative && (t.first_seq >= lost_since || hidden_shown))
         score[static_cast<size_t>(v) * num_dets + d] = 0.0;
     }
   }
@@ -830,7 +829,9 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   }
 
   // Whether object `o`, matched to track `r`, holds a remembered track's own last view (a
-  // merge that goes on after the frame it began in).
+  // merge that goes on after the frame it began in). Only tracks within their memory count,
+  // not those kept past it while hidden: a long-hidden track under an object put down on it
+  // would otherwise keep that object's own centroid from ever following it.
   auto HoldsRememberedTrack = [&](const Object& o, int r) {
     const Box box{o.aabb_min, o.aabb_max};
     for (int q = 0; q < num_tracks; ++q) {

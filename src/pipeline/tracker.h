@@ -168,11 +168,11 @@ struct LostTrack {
   int32_t frames_since_seen{0};  ///< >= 1
   int32_t age_frames{0};         ///< frames since the track was first seen
   int32_t seen_frames{0};
-  TrackState state{TrackState::kLost};  ///< always kLost
-  bool was_confirmed{false};       ///< false: tentative_memory_frames > 0 or tentative_merge_memory
-  uint32_t num_points{0};          ///< of the last view
-  core::Vec3f centroid;            ///< of the last view
-  core::Vec3f aabb_min, aabb_max;  ///< axis-aligned box of the last view
+  TrackState state{TrackState::kLost};         ///< always kLost
+  bool was_confirmed{false};                   ///< false: remembered before it was confirmed
+  uint32_t num_points{0};                      ///< of the last view
+  core::Vec3f centroid;                        ///< of the last view
+  core::Vec3f aabb_min, aabb_max;              ///< axis-aligned box of the last view
   core::Vec3f remembered_min, remembered_max;  ///< the box used for reacquisition
 };
 
