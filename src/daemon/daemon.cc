@@ -293,6 +293,26 @@ struct Daemon::Impl {
             "segmenter.points.max_depth_m, and the camera's view");
   }
 
+  // Runs the second halves of the partition prior and the tracker (what they keep for the
+  // next frame: PartitionPrior::Remember, Tracker::RememberSurfaces) when Complete returns,
+  // after the frame was offered to the sinks, whatever path it returns by.
+  struct RememberAfterPublishing {
+    Impl* impl;
+    pipeline::PartitionPrior* partition{nullptr};
+    pipeline::Tracker* tracker{nullptr};
+    explicit RememberAfterPublishing(Impl* i) : impl(i) {}
+    RememberAfterPublishing(const RememberAfterPublishing&) = delete;
+    RememberAfterPublishing& operator=(const RememberAfterPublishing&) = delete;
+    ~RememberAfterPublishing() {
+      try {
+        if (partition != nullptr) partition->Remember();
+        if (tracker != nullptr) tracker->RememberSurfaces();
+      } catch (const std::exception& e) {
+        impl->Fail(std::string("remembering the frame for the next one failed: ") + e.what());
+      }
+    }
+  };
+
   void Complete(const pipeline::FrameRunner::Lane& lane, uint64_t, const std::string* error) {
     LaneOutput& out = outputs[static_cast<size_t>(lane.index)];
     if (error != nullptr) {
@@ -301,7 +321,9 @@ struct Daemon::Impl {
     }
     const int64_t max_frames = config.capture.max_frames;
     if (max_frames > 0 && handed.load() >= static_cast<uint64_t>(max_frames)) return;
+    RememberAfterPublishing remember{this};
     ApplyPartitionPrior(lane, &out);
+    remember.partition = partition.get();
     if (tracker) {
       {
         std::lock_guard<std::mutex> lock(tracker_params_mutex);
@@ -310,8 +332,11 @@ struct Daemon::Impl {
           pending_tracker_params.reset();
         }
       }
-      tracker->Update(*lane.result, static_cast<int64_t>(out.sequence), &tracking,
-                      lane.segmenter->working_cloud(), lane.segmenter->scene_depth());
+      // The ids first; the surfaces it keeps for the next frame once this one is published
+      // (RememberAfterPublishing), off the capture-to-publish path.
+      tracker->Associate(*lane.result, static_cast<int64_t>(out.sequence), &tracking,
+                         lane.segmenter->working_cloud(), lane.segmenter->scene_depth());
+      remember.tracker = tracker.get();
       ToTrackMessage(tracking, &out.messages.objects);
       if (out.extrinsics) LostTracksToParentFrame(*out.extrinsics, &out.messages.objects);
     }
@@ -328,6 +353,7 @@ struct Daemon::Impl {
     last_num_objects.store(out.messages.objects.num_objects);
     NoteDepthInRange(lane.result->num_valid_points, out.sequence);
     if (lane.result->supervoxels_capped || lane.result->objects_capped) NoteCapped(*lane.result);
+    runner.RestIfIdle();  // the publisher gets a core at once (RememberAfterPublishing)
     publisher.Offer(&out.messages, sink_wait);
     // After a stop signal the overlays of the frames still in flight do not wait for room
     // behind the lowest-priority writer (in lockstep that wait is up to kLockstepSinkWait):
@@ -371,8 +397,9 @@ struct Daemon::Impl {
     }
     if (!partition) return;
     const int64_t start_us = core::SteadyClockMicros();
-    if (partition->Apply(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
-                         lane.result, lane.segmenter->scene_depth())) {
+    // Its output kept for the next frame once this one is published (RememberAfterPublishing).
+    if (partition->Relabel(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
+                           lane.result, lane.segmenter->scene_depth())) {
       DescribeObjects(lane, out);
       if (overlay) out->overlay.labels = lane.result->labels;
     }

@@ -109,11 +109,16 @@ struct FrameRunner::Impl {
       // done are completed: the pool's workers stop spinning, so that the threads the
       // completion woke (the sinks) get a core. (Before the completion, its per-pixel passes
       // would first wake blocked workers.)
-      if (params.policy == DispatchPolicy::kLatencyFirst && pool &&
-          std::none_of(lanes.begin(), lanes.end(), [](const LaneState& l) { return l.working; })) {
-        pool->Rest();
-      }
+      RestIfIdleLocked();
       cv.notify_all();
+    }
+  }
+
+  // Lets the pool rest when the policy puts latency first and no lane segments (mutex held).
+  void RestIfIdleLocked() {
+    if (params.policy == DispatchPolicy::kLatencyFirst && pool &&
+        std::none_of(lanes.begin(), lanes.end(), [](const LaneState& l) { return l.working; })) {
+      pool->Rest();
     }
   }
 
@@ -237,6 +242,11 @@ void FrameRunner::UpdateParams(const SegmenterParams& params) {
 void FrameRunner::ForEachLane(const std::function<void(const Lane&)>& fn) {
   Drain();
   for (size_t i = 0; i < impl_->lanes.size(); ++i) fn(impl_->View(i));
+}
+
+void FrameRunner::RestIfIdle() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->RestIfIdleLocked();
 }
 
 uint64_t FrameRunner::completed() const {

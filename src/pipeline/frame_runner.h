@@ -101,6 +101,13 @@ class FrameRunner {
   /// buffers; waits for the items in flight first. Submitting thread only.
   void ForEachLane(const std::function<void(const Lane&)>& fn);
 
+  /// From Done, before it hands its frame to a thread that sinks it: under
+  /// DispatchPolicy::kLatencyFirst, when no lane is segmenting, the pool's idle workers stop
+  /// spinning now (core::ThreadPool::Rest) rather than when Done returns, so that the woken
+  /// sink gets a core while Done finishes what only the next frame needs (run without the
+  /// pool). Does nothing otherwise.
+  void RestIfIdle();
+
   /// Items completed so far.
   uint64_t completed() const;
   /// The first exception message thrown out of Done, empty when none.

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "clutterseg/core/assert.h"
 #include "clutterseg/core/label_scan.h"
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/core/union_find.h"
@@ -78,6 +79,8 @@ PartitionPrior::~PartitionPrior() = default;
 
 void PartitionPrior::Reset() {
   have_prev_ = false;
+  pending_result_ = nullptr;
+  pending_cloud_ = {};
   history_.Reset();
   merges_.clear();
   splits_.clear();
@@ -90,6 +93,32 @@ size_t PartitionPrior::memory_bytes() const {
 
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                            SegmentationResult* result, std::span<const float> scene_z) {
+  const bool changed = Relabel(cloud, frame_seq, result, scene_z);
+  if (pending_result_ != nullptr) {
+    RememberOutput(pending_cloud_, *pending_result_, counts_rp_, pending_have_counts_, pool_);
+    pending_result_ = nullptr;
+    pending_cloud_ = {};
+  }
+  return changed;
+}
+
+void PartitionPrior::Remember() {
+  if (pending_result_ == nullptr) return;
+  RememberOutput(pending_cloud_, *pending_result_, counts_rp_, pending_have_counts_, nullptr);
+  pending_result_ = nullptr;
+  pending_cloud_ = {};
+}
+
+void PartitionPrior::Defer(const core::PointCloudView& cloud, const SegmentationResult* result,
+                           bool have_counts) {
+  pending_result_ = result;
+  pending_cloud_ = cloud;
+  pending_have_counts_ = have_counts;
+}
+
+bool PartitionPrior::Relabel(const core::PointCloudView& cloud, int64_t frame_seq,
+                             SegmentationResult* result, std::span<const float> scene_z) {
+  CLUTTERSEG_DEMAND(pending_result_ == nullptr);  // Remember of the last frame ran
   counts_ = PartitionPriorCounts{};
   if (!enabled()) return false;
   const int w = result->labels.width, h = result->labels.height;
@@ -112,7 +141,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   if (!have_prev_) {
     if (arrivals) Describe(cloud, n, result);
     counts_rp_.clear();
-    Remember(cloud, *result, counts_rp_, false);
+    Defer(cloud, result, false);
     prev_seq_ = frame_seq;
     return arrivals;
   }
@@ -311,7 +340,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
     num_labels = Compact(next_label, out_labels_.data(), num_pixels, out);
   }
   if (!held && !arrivals) {
-    Remember(cloud, *result, counts_rp_, true);
+    Defer(cloud, result, true);
     prev_seq_ = frame_seq;
     return false;
   }
@@ -322,7 +351,7 @@ bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
   for (size_t i = 0; i < num_pixels; ++i) {
     if (state_[i] & kStill) ++counts_rp_[out[i] * stride + prev_labels_[i]];
   }
-  Remember(cloud, *result, counts_rp_, true);
+  Defer(cloud, result, true);
   prev_seq_ = frame_seq;
   return true;
 }
@@ -353,8 +382,10 @@ uint32_t PartitionPrior::Compact(uint32_t num_in, const uint32_t* in, size_t num
   return count;
 }
 
-void PartitionPrior::Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
-                              const std::vector<uint32_t>& counts, bool have_counts) {
+void PartitionPrior::RememberOutput(const core::PointCloudView& cloud,
+                                    const SegmentationResult& result,
+                                    const std::vector<uint32_t>& counts, bool have_counts,
+                                    core::ThreadPool* pool) {
   const size_t num_pixels = result.labels.data.size();
   const uint32_t n = static_cast<uint32_t>(result.objects.size());
   // Ids: an object takes the id of the previous object holding most of its still pixels
@@ -394,7 +425,7 @@ void PartitionPrior::Remember(const core::PointCloudView& cloud, const Segmentat
   prev_labels_.resize(num_pixels);
   if (still_age_.size() != num_pixels || !have_prev_) still_age_.assign(num_pixels, 0);
   prev_z_.resize(num_pixels);
-  core::ForChunks(pool_, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
+  core::ForChunks(pool, num_pixels, core::kPixelGrain, [&](size_t b, size_t e) {
     for (size_t i = b; i < e; ++i) {
       const uint32_t l = result.labels.data[i];
       prev_labels_[i] = l <= n ? l : 0;

@@ -136,6 +136,16 @@ class PartitionPrior {
   bool Apply(const core::PointCloudView& cloud, int64_t frame_seq, SegmentationResult* result,
              std::span<const float> scene_z = {});
 
+  /// Apply in two halves, for a caller that publishes between them: Relabel changes `result`
+  /// as Apply does, and Remember keeps its output for the next frame (without the pool, so
+  /// that a thread woken to publish gets a core). Remember must follow each Relabel before the
+  /// next one, with `cloud` and `result` alive and unchanged (it aborts otherwise: a
+  /// programming error); together they do exactly what Apply does.
+  bool Relabel(const core::PointCloudView& cloud, int64_t frame_seq, SegmentationResult* result,
+               std::span<const float> scene_z = {});
+  /// The second half of Apply (see Relabel); does nothing when none is pending.
+  void Remember();
+
   /// Forgets the previous frames.
   void Reset();
 
@@ -160,8 +170,18 @@ class PartitionPrior {
   void Describe(const core::PointCloudView& cloud, uint32_t num_labels, SegmentationResult* result);
   // Renumbers labels [0, num_in) of `in` to 1..count in label order into `out` (may alias).
   uint32_t Compact(uint32_t num_in, const uint32_t* in, size_t num_pixels, uint32_t* out);
-  void Remember(const core::PointCloudView& cloud, const SegmentationResult& result,
-                const std::vector<uint32_t>& counts, bool have_counts);
+  // Keeps the output `result` (its ids from `counts`, the output against the previous frame,
+  // when `have_counts`) for the next frame; the per-pixel copy in chunks on `pool` (may be null).
+  void RememberOutput(const core::PointCloudView& cloud, const SegmentationResult& result,
+                      const std::vector<uint32_t>& counts, bool have_counts,
+                      core::ThreadPool* pool);
+  // Leaves the output of the frame Relabel finished to Remember.
+  void Defer(const core::PointCloudView& cloud, const SegmentationResult* result, bool have_counts);
+
+  // The frame whose output Remember keeps (Relabel's), null when none is pending.
+  const SegmentationResult* pending_result_{nullptr};
+  core::PointCloudView pending_cloud_;
+  bool pending_have_counts_{false};
 
   PartitionPriorParams params_;
   TemporalFilterParams band_;  // its band_at_1m_m and min_band_m

@@ -2,6 +2,8 @@
 
 #include <chrono>
 
+#include "clutterseg/core/label_scan.h"
+#include "clutterseg/core/thread_pool.h"
 #include "clutterseg/geometry/planar_regions.h"
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
@@ -109,7 +111,9 @@ void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraInt
   m.scene_z.clear();
   if (m.params.partition.arrival_gap_frames > 0 && work.organized()) {
     m.scene_z.resize(work.size());
-    for (size_t i = 0; i < work.size(); ++i) m.scene_z[i] = work.xyz[i].z;
+    core::ForChunks(m.pool, work.size(), core::kPixelGrain, [&](size_t b, size_t e) {
+      for (size_t i = b; i < e; ++i) m.scene_z[i] = work.xyz[i].z;
+    });
   }
   if (m.work.num_valid == 0) return;
 

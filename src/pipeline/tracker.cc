@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "clutterseg/core/assert.h"
 #include "clutterseg/core/label_scan.h"
 #include "clutterseg/core/param_check.h"
 #include "clutterseg/optimize/assignment.h"
@@ -185,8 +186,21 @@ struct Tracker::Impl {
     prev_z.clear();
   }
 
-  void Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
-              const core::PointCloudView& cloud, std::span<const float> scene_z);
+  void Associate(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
+                 const core::PointCloudView& cloud, std::span<const float> scene_z);
+  // The second half of a frame's update (Tracker::RememberSurfaces).
+  void RememberSurfaces();
+
+  // The surfaces Associate left to RememberSurfaces: its frame and cloud, and per track (its
+  // index in `tracks`) the object whose surface it remembers and that object's pixel count.
+  struct SurfaceToRemember {
+    size_t track;
+    int det;
+    uint32_t num_pixels;
+  };
+  const SegmentationResult* remember_frame{nullptr};  // null: nothing pending
+  core::PointCloudView remember_cloud;
+  std::vector<SurfaceToRemember> to_remember;
 
   // Object `o` of `frame` (`num_pixels` pixels), `t`'s reference view, becomes its remembered
   // surface (none without depth). Reads the object's image box; the whole image when the box
@@ -294,8 +308,10 @@ struct Tracker::Impl {
   optimize::AssignmentSolver solver;
 };
 
-void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
-                           const core::PointCloudView& cloud, std::span<const float> scene_z) {
+void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, TrackingResult* out,
+                              const core::PointCloudView& cloud, std::span<const float> scene_z) {
+  CLUTTERSEG_DEMAND(remember_frame == nullptr);  // RememberSurfaces of the last frame ran
+  to_remember.clear();
   out->frame_seq = seq;
   out->reset = false;
   out->objects.clear();
@@ -919,7 +935,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
       if (own_view && (restart_view || static_cast<float>(o.num_points) >= t.ref_points)) {
         t.ref_points = static_cast<float>(o.num_points);
         t.ref_box = t.box;
-        if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
+        if (with_depth) to_remember.push_back({kept.size(), d, det_pixel_count(d)});
       }
       ObjectTrack& ot = out->objects[static_cast<size_t>(d)];
       ot.track_id = t.id;
@@ -955,7 +971,7 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     t.box = Box{o.aabb_min, o.aabb_max};
     t.ref_points = static_cast<float>(o.num_points);
     t.ref_box = t.box;
-    if (with_depth) RememberSurface(frame, o, det_pixel_count(d), cloud, &t);
+    if (with_depth) to_remember.push_back({kept.size(), d, det_pixel_count(d)});
     t.own_centroid = o.centroid;
     t.own_points = o.num_points;
     t.newcomer_of = newcomer_from[static_cast<size_t>(d)];
@@ -969,19 +985,8 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
     kept.push_back(std::move(t));
   }
   tracks.swap(kept);
-  // A track begun on a newcomer's segment leaves out of its remembered surface what the track
-  // it joined remembers, until that one is seen again or ends.
-  for (Track& t : tracks) {
-    if (t.newcomer_of < 0) continue;
-    const auto old = std::find_if(tracks.begin(), tracks.end(),
-                                  [&](const Track& o) { return o.id == t.newcomer_of; });
-    if (old == tracks.end()) {
-      t.newcomer_of = -1;
-      continue;
-    }
-    LeaveOutSurface(*old, &t);
-    if (old->last_seq == seq) t.newcomer_of = -1;
-  }
+  remember_frame = &frame;
+  remember_cloud = cloud;
 
   for (const Track& t : tracks) {
     if (t.last_seq == seq) continue;
@@ -1016,6 +1021,30 @@ void Tracker::Impl::Update(const SegmentationResult& frame, int64_t seq, Trackin
   have_prev = true;
 }
 
+void Tracker::Impl::RememberSurfaces() {
+  if (remember_frame == nullptr) return;
+  const SegmentationResult& frame = *remember_frame;
+  for (const SurfaceToRemember& r : to_remember) {
+    RememberSurface(frame, frame.objects[static_cast<size_t>(r.det)], r.num_pixels, remember_cloud,
+                    &tracks[r.track]);
+  }
+  // A track begun on a newcomer's segment leaves out of its remembered surface what the track
+  // it joined remembers, until that one is seen again or ends.
+  for (Track& t : tracks) {
+    if (t.newcomer_of < 0) continue;
+    const auto old = std::find_if(tracks.begin(), tracks.end(),
+                                  [&](const Track& o) { return o.id == t.newcomer_of; });
+    if (old == tracks.end()) {
+      t.newcomer_of = -1;
+      continue;
+    }
+    LeaveOutSurface(*old, &t);
+    if (old->last_seq == prev_seq) t.newcomer_of = -1;
+  }
+  remember_frame = nullptr;
+  remember_cloud = {};
+}
+
 Tracker::Tracker(const TrackerParams& params, const TemporalFilterParams& band,
                  core::ThreadPool* pool)
     : impl_(std::make_unique<Impl>(params, band, pool)) {}
@@ -1024,10 +1053,21 @@ Tracker::~Tracker() = default;
 void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
                      const core::PointCloudView& cloud, std::span<const float> scene_z) {
   const auto t0 = std::chrono::steady_clock::now();
-  impl_->Update(frame, frame_seq, out, cloud, scene_z);
+  impl_->Associate(frame, frame_seq, out, cloud, scene_z);
+  impl_->RememberSurfaces();
   out->time_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
+
+void Tracker::Associate(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
+                        const core::PointCloudView& cloud, std::span<const float> scene_z) {
+  const auto t0 = std::chrono::steady_clock::now();
+  impl_->Associate(frame, frame_seq, out, cloud, scene_z);
+  out->time_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+void Tracker::RememberSurfaces() { impl_->RememberSurfaces(); }
 
 void Tracker::Reset() { impl_->reset_pending = true; }
 

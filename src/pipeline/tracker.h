@@ -253,6 +253,17 @@ class Tracker {
   void Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
               const core::PointCloudView& cloud = {}, std::span<const float> scene_z = {});
 
+  /// Update in two halves, for a caller that publishes between them: Associate fills `out`
+  /// (the ids; TrackingResult::time_ms is its time) and RememberSurfaces keeps the surfaces
+  /// of the objects seen for the next frame. RememberSurfaces must follow each Associate before
+  /// the next one, with `frame` and `cloud` alive and unchanged (it aborts otherwise: a
+  /// programming error); together they do exactly what Update does.
+  void Associate(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
+                 const core::PointCloudView& cloud = {}, std::span<const float> scene_z = {});
+  /// The second half of Update (see Associate); does nothing when none is pending. Never
+  /// throws except std::bad_alloc.
+  void RememberSurfaces();
+
   /// Forgets every track (their ids are not reused) and the previous frame; the next Update
   /// reports them in ended_track_ids and sets TrackingResult::reset.
   void Reset();

@@ -140,6 +140,35 @@ TEST(PartitionPrior, AMergeOfStillObjectsIsPublishedAfterHoldFramesInARow) {
   EXPECT_EQ(third.objects.size(), 1u);
 }
 
+TEST(PartitionPrior, AMergeIsHeldTheSameWayInTwoHalves) {
+  PartitionPrior whole(Hold(3), TemporalFilterParams{}), halves(Hold(3), TemporalFilterParams{});
+  const core::PointCloud cloud = Scene();
+  int held = 0, passed = 0;
+  for (int64_t seq = 1; seq <= 8; ++seq) {
+    SegmentationResult a = seq <= 4 ? Split() : Merged(), b = a;
+    const bool changed = whole.Apply(cloud, seq, &a);
+    EXPECT_EQ(halves.Relabel(cloud, seq, &b), changed) << seq;
+    halves.Remember();
+    EXPECT_EQ(b.labels.data, a.labels.data) << seq;
+    EXPECT_EQ(halves.counts().held_merges, whole.counts().held_merges) << seq;
+    EXPECT_EQ(halves.counts().passed_merges, whole.counts().passed_merges) << seq;
+    held += whole.counts().held_merges;
+    passed += whole.counts().passed_merges;
+  }
+  EXPECT_EQ(held, 2);  // held twice, then published
+  EXPECT_EQ(passed, 1);
+}
+
+TEST(PartitionPriorDeathTest, RelabelWithoutRememberIsAProgrammingError) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  PartitionPrior prior(Hold(3), TemporalFilterParams{});
+  const core::PointCloud cloud = Scene();
+  SegmentationResult r = Split();
+  prior.Relabel(cloud, 1, &r);
+  SegmentationResult again = Split();
+  EXPECT_DEATH(prior.Relabel(cloud, 2, &again), "pending_result_");
+}
+
 TEST(PartitionPrior, AMergeSeenNowAndThenIsNeverPublished) {
   PartitionPrior prior(Hold(3), TemporalFilterParams{});
   const core::PointCloud cloud = Scene();
@@ -635,7 +664,8 @@ TEST(PartitionPrior, TouchingObjectsSeenAgainAfterTheCameraMovedAreNotJoined) {
 // down at frame 10, box B beside it (columns 160-279) at frame 30, and the segmentation gives
 // both as one segment from then on: split by their arrivals, with no pool and on pools of two
 // and three threads alike.
-TEST(PartitionPrior, TheSameObjectsByArrivalOnAPoolOfAnySize) {
+// Alone, on pools of two and three, and in the daemon's two halves (Relabel, publish, Remember).
+TEST(PartitionPrior, TheSameObjectsByArrivalOnAPoolOfAnySizeAndInTwoHalves) {
   constexpr int w = 320, h = 240;
   static_assert(static_cast<size_t>(w * h) > 2 * core::kPixelGrain);
   const auto in_box = [](int u, int v, int64_t seq) {
@@ -674,13 +704,18 @@ TEST(PartitionPrior, TheSameObjectsByArrivalOnAPoolOfAnySize) {
   PartitionPrior alone(Arrival(), TemporalFilterParams{});
   PartitionPrior on_two(Arrival(), TemporalFilterParams{}, &two);
   PartitionPrior on_three(Arrival(), TemporalFilterParams{}, &three);
+  PartitionPrior halves(Arrival(), TemporalFilterParams{}, &two);
   int splits = 0;
   for (int64_t seq = 1; seq < 60; ++seq) {
     const core::PointCloud c = cloud(seq);
-    SegmentationResult r = segmented(seq), r2 = r, r3 = r;
-    alone.Apply(c, seq, &r);
+    SegmentationResult r = segmented(seq), r2 = r, r3 = r, r4 = r;
+    const bool changed = alone.Apply(c, seq, &r);
     on_two.Apply(c, seq, &r2);
     on_three.Apply(c, seq, &r3);
+    EXPECT_EQ(halves.Relabel(c, seq, &r4), changed) << seq;
+    halves.Remember();
+    halves.Remember();  // nothing pending: does nothing
+    EXPECT_EQ(r4.labels.data, r.labels.data) << seq;
     splits += alone.counts().arrival_splits;
     ASSERT_EQ(r2.objects.size(), r.objects.size()) << seq;
     ASSERT_EQ(r3.objects.size(), r.objects.size()) << seq;

@@ -1172,32 +1172,77 @@ TEST(TrackerSequences, StaticSceneIsSteady) {
   }
 }
 
+// The ids, states and lost tracks of two trackings of frame `k` are the same.
+void ExpectSameTracking(const TrackingResult& x, const TrackingResult& y, size_t k) {
+  ASSERT_EQ(x.objects.size(), y.objects.size()) << "frame " << k;
+  for (size_t i = 0; i < x.objects.size(); ++i) {
+    EXPECT_EQ(x.objects[i].track_id, y.objects[i].track_id) << "frame " << k;
+    EXPECT_EQ(x.objects[i].age_frames, y.objects[i].age_frames);
+    EXPECT_EQ(x.objects[i].seen_frames, y.objects[i].seen_frames);
+    EXPECT_EQ(x.objects[i].state, y.objects[i].state);
+    EXPECT_EQ(x.objects[i].reacquired, y.objects[i].reacquired);
+  }
+  ASSERT_EQ(x.lost.size(), y.lost.size()) << "frame " << k;
+  for (size_t i = 0; i < x.lost.size(); ++i) {
+    EXPECT_EQ(x.lost[i].track_id, y.lost[i].track_id);
+    EXPECT_EQ(x.lost[i].frames_since_seen, y.lost[i].frames_since_seen);
+    EXPECT_EQ(x.lost[i].centroid.x, y.lost[i].centroid.x);
+    EXPECT_EQ(x.lost[i].remembered_max.z, y.lost[i].remembered_max.z);
+  }
+  EXPECT_EQ(x.ended_track_ids, y.ended_track_ids) << "frame " << k;
+}
+
 TEST(TrackerSequences, DeterministicForTheSameInput) {
   core::ThreadPool pool(2);
   const synth::SequenceParams seq = Scenario(synth::Scenario::kOccluder, 16);
   const ScenarioRun a = RunScenario(TrackingSceneParams(), seq, 3);
   const ScenarioRun b = RunScenario(TrackingSceneParams(), seq, 3, TrackerParams{}, &pool);
   ASSERT_EQ(a.tracking.size(), b.tracking.size());
-  for (size_t k = 0; k < a.tracking.size(); ++k) {
-    const TrackingResult& x = a.tracking[k];
-    const TrackingResult& y = b.tracking[k];
-    ASSERT_EQ(x.objects.size(), y.objects.size()) << "frame " << k;
-    for (size_t i = 0; i < x.objects.size(); ++i) {
-      EXPECT_EQ(x.objects[i].track_id, y.objects[i].track_id);
-      EXPECT_EQ(x.objects[i].age_frames, y.objects[i].age_frames);
-      EXPECT_EQ(x.objects[i].seen_frames, y.objects[i].seen_frames);
-      EXPECT_EQ(x.objects[i].state, y.objects[i].state);
-      EXPECT_EQ(x.objects[i].reacquired, y.objects[i].reacquired);
+  for (size_t k = 0; k < a.tracking.size(); ++k)
+    ExpectSameTracking(a.tracking[k], b.tracking[k], k);
+}
+
+// The daemon's two halves (Associate, publish, RememberSurfaces) track as Update does: objects
+// added one by one into touching piles (merges, splits, newcomers against remembered tracks)
+// and an arm passing in front (remembered surfaces reacquired), with the frame's depth.
+TEST(TrackerSequences, AssociateThenRememberSurfacesIsUpdate) {
+  const synth::SceneParams scene = TrackingSceneParams();
+  for (const synth::Scenario kind : {synth::Scenario::kAdd, synth::Scenario::kOccluder}) {
+    const std::vector<synth::Scene> frames =
+        synth::GenerateScenarioSequence(scene, Scenario(kind, 40), 5);
+    Segmenter segmenter(SegmenterParams{});
+    Tracker whole(TrackerParams{}), halves(TrackerParams{});
+    synth::RenderedFrame rendered;
+    core::PointCloud cloud;
+    SegmentationResult result;
+    TrackingResult x, y;
+    int remembered = 0;
+    for (size_t k = 0; k < frames.size(); ++k) {
+      synth::RenderScene(frames[k], scene.intrinsics, synth::SensorParams{},
+                         synth::HashCounter(5, 0x7a11, k + 1), &rendered);
+      synth::ToPointCloud(rendered, &cloud);
+      segmenter.Process(cloud, scene.intrinsics, &result);
+      whole.Update(result, static_cast<int64_t>(k), &x, segmenter.working_cloud());
+      halves.Associate(result, static_cast<int64_t>(k), &y, segmenter.working_cloud());
+      halves.RememberSurfaces();
+      halves.RememberSurfaces();  // nothing pending: does nothing
+      ExpectSameTracking(x, y, k);
+      remembered += static_cast<int>(y.lost.size());
     }
-    ASSERT_EQ(x.lost.size(), y.lost.size()) << "frame " << k;
-    for (size_t i = 0; i < x.lost.size(); ++i) {
-      EXPECT_EQ(x.lost[i].track_id, y.lost[i].track_id);
-      EXPECT_EQ(x.lost[i].frames_since_seen, y.lost[i].frames_since_seen);
-      EXPECT_EQ(x.lost[i].centroid.x, y.lost[i].centroid.x);
-      EXPECT_EQ(x.lost[i].remembered_max.z, y.lost[i].remembered_max.z);
+    if (kind == synth::Scenario::kOccluder) {
+      EXPECT_GT(remembered, 0);  // tracks were remembered
     }
-    EXPECT_EQ(x.ended_track_ids, y.ended_track_ids) << "frame " << k;
   }
+}
+
+TEST(TrackerSequencesDeathTest, AssociateWithoutRememberSurfacesIsAProgrammingError) {
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  SegmentationResult frame;
+  frame.labels.Reset(4, 4, 0u);
+  Tracker tracker(TrackerParams{});
+  TrackingResult out;
+  tracker.Associate(frame, 0, &out);
+  EXPECT_DEATH(tracker.Associate(frame, 1, &out), "RememberSurfaces|remember_frame");
 }
 
 }  // namespace
