@@ -121,6 +121,8 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.hidden_memory_frames", &C::tracker, &T::hidden_memory_frames),
           MakeKey("tracker.newcomer_merge", &C::tracker, &T::newcomer_merge),
           MakeKey("tracker.tentative_merge_memory", &C::tracker, &T::tentative_merge_memory),
+          MakeKey("tracker.occluder_is_not_continuation", &C::tracker,
+                  &T::occluder_is_not_continuation),
           MakeKey("tracker.min_mask_overlap", &C::tracker, &T::min_mask_overlap),
           MakeKey("tracker.max_centroid_step_m", &C::tracker, &T::max_centroid_step_m),
           MakeKey("tracker.max_size_ratio", &C::tracker, &T::max_size_ratio),

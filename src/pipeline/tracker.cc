@@ -540,13 +540,20 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
         const float dist = Distance(o.centroid, t.centroid);
         bool ok = dist <= params.max_centroid_step_m &&
                   SizesAlike(Diagonal(box), track_diag, params.max_size_ratio);
+        // It continues the track unless it reaches the track's mask only where something came
+        // in front (an occluder over a track whose pixels mostly fell into holes).
+        bool continuing = ok;
         double iou = 0.0;
         if (overlap && t.prev_label != 0) {
           const double i = inter(t, d);
           const double a = prev_size[t.prev_label];
           const double b = cur_size[o.id];
           if (i > 0.0) {
-            ok = ok || i >= params.min_mask_overlap * std::min(a, b);
+            const double need = params.min_mask_overlap * std::min(a, b);
+            ok = ok || i >= need;
+            continuing = continuing || (compare_depth && params.occluder_is_not_continuation
+                                            ? unchanged(t, d) >= need
+                                            : i >= need);
             iou = i / (a + b - i);
           }
         }
@@ -554,7 +561,7 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
           const double near = std::max(0.0, 1.0 - dist / params.max_centroid_step_m);
           s = mask_weight * iou + geo_weight * (near + BoxIou(box, t.box));
           allowed = true;
-          continues = true;
+          continues = continues || continuing;
         } else if (shows_surface(r, d)) {  // a piece of a covered track out of its mask's reach
           s = surface_score(r, d);
           allowed = true;

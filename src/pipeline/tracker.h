@@ -52,6 +52,12 @@ struct TrackerParams {
   /// frames, and takes its id back when it shows apart (with depth, by its remembered surface).
   /// false = it ends as any track not yet confirmed (tentative_memory_frames).
   bool tentative_merge_memory{true};
+  /// With the frame's depth: an object that reaches a track's previous mask only where
+  /// something came in front (min_mask_overlap counted on the pixels whose surface did not
+  /// change) does not continue the track. An occluder sweeping across a track whose pixels
+  /// mostly fell into holes then leaves it free to take the piece of it that showed again
+  /// beside the occluder by its remembered surface. false = any mask overlap continues it.
+  bool occluder_is_not_continuation{true};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).

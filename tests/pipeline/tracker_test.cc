@@ -474,6 +474,40 @@ TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderWithoutDepthGetsTheObj
   }
 }
 
+// An occluder (a segment of its own) sweeps right across a long object with nothing behind it:
+// first the object's left part is hidden, then its middle, while its left end shows again and
+// most of what the track held in the previous frame falls into holes (no depth). The occluder
+// reaches the track's previous mask only where it came in front: with
+// occluder_is_not_continuation it does not continue the track, and the left end takes the
+// object's id by its remembered surface, in its first frame; without, it gets a new id.
+std::vector<int64_t> SweptEndIds(bool occluder_is_not_continuation) {
+  TrackerParams params;
+  params.occluder_is_not_continuation = occluder_is_not_continuation;
+  Tracker dut(params);
+  core::PointCloud cloud;
+  TrackingResult out;
+  int64_t seq = 0;
+  const auto step = [&](const std::vector<Surface>& surfaces) {
+    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
+    return Ids(out);
+  };
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(step({Surface{Rect{10, 10, 60, 30}, 1.0f, 1}}), (std::vector<int64_t>{1}));
+  }
+  EXPECT_EQ(step({Surface{Rect{35, 10, 60, 30}, 1.0f, 1}, Surface{Rect{10, 10, 35, 30}, 0.6f, 2}}),
+            (std::vector<int64_t>{1, 2}));
+  // The occluder over columns 22-40: 100 of the 500 pixels the track held, the other 400 holes.
+  const std::vector<int64_t> ids =
+      step({Surface{Rect{10, 10, 22, 30}, 1.0f, 1}, Surface{Rect{22, 10, 40, 30}, 0.6f, 2}});
+  EXPECT_FALSE(out.objects[0].reacquired);
+  return ids;
+}
+
+TEST(TrackerOccluder, AnEndShowingAgainBesideAnOccluderOverHolesKeepsTheObjectsId) {
+  EXPECT_EQ(SweptEndIds(true), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(SweptEndIds(false), (std::vector<int64_t>{3, 2}));  // the occluder continued it
+}
+
 // A track whose merge with a newcomer comes apart, the newcomer's pixels now on no object,
 // continues on its own object; a piece of its remembered surface beside it that was not in the
 // merge does not take the track by that surface.
