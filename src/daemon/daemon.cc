@@ -322,8 +322,7 @@ struct Daemon::Impl {
     const int64_t max_frames = config.capture.max_frames;
     if (max_frames > 0 && handed.load() >= static_cast<uint64_t>(max_frames)) return;
     RememberAfterPublishing remember{this};
-    ApplyPartitionPrior(lane, &out);
-    remember.partition = partition.get();
+    ApplyPartitionPrior(lane, &out, &remember);
     if (tracker) {
       {
         std::lock_guard<std::mutex> lock(tracker_params_mutex);
@@ -385,7 +384,10 @@ struct Daemon::Impl {
   }
 
   // The hysteresis on the partition, in frame order; a changed result is described again.
-  void ApplyPartitionPrior(const pipeline::FrameRunner::Lane& lane, LaneOutput* out) {
+  // Armed in `remember` as soon as it relabelled, so that its second half runs whatever
+  // path Complete leaves by.
+  void ApplyPartitionPrior(const pipeline::FrameRunner::Lane& lane, LaneOutput* out,
+                           RememberAfterPublishing* remember) {
     {
       std::lock_guard<std::mutex> lock(partition_params_mutex);
       if (pending_partition_params) {
@@ -398,8 +400,11 @@ struct Daemon::Impl {
     if (!partition) return;
     const int64_t start_us = core::SteadyClockMicros();
     // Its output kept for the next frame once this one is published (RememberAfterPublishing).
-    if (partition->Relabel(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
-                           lane.result, lane.segmenter->scene_depth())) {
+    const bool changed =
+        partition->Relabel(lane.segmenter->working_cloud(), static_cast<int64_t>(out->sequence),
+                           lane.result, lane.segmenter->scene_depth());
+    remember->partition = partition.get();
+    if (changed) {
       DescribeObjects(lane, out);
       if (overlay) out->overlay.labels = lane.result->labels;
     }

@@ -94,17 +94,15 @@ size_t PartitionPrior::memory_bytes() const {
 bool PartitionPrior::Apply(const core::PointCloudView& cloud, int64_t frame_seq,
                            SegmentationResult* result, std::span<const float> scene_z) {
   const bool changed = Relabel(cloud, frame_seq, result, scene_z);
-  if (pending_result_ != nullptr) {
-    RememberOutput(pending_cloud_, *pending_result_, counts_rp_, pending_have_counts_, pool_);
-    pending_result_ = nullptr;
-    pending_cloud_ = {};
-  }
+  RememberPending(pool_);
   return changed;
 }
 
-void PartitionPrior::Remember() {
+void PartitionPrior::Remember() { RememberPending(nullptr); }
+
+void PartitionPrior::RememberPending(core::ThreadPool* pool) {
   if (pending_result_ == nullptr) return;
-  RememberOutput(pending_cloud_, *pending_result_, counts_rp_, pending_have_counts_, nullptr);
+  RememberOutput(pending_cloud_, *pending_result_, counts_rp_, pending_have_counts_, pool);
   pending_result_ = nullptr;
   pending_cloud_ = {};
 }

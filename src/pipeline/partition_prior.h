@@ -175,6 +175,8 @@ class PartitionPrior {
   void RememberOutput(const core::PointCloudView& cloud, const SegmentationResult& result,
                       const std::vector<uint32_t>& counts, bool have_counts,
                       core::ThreadPool* pool);
+  // Runs the pending RememberOutput (Relabel's frame), its copy on `pool` (may be null).
+  void RememberPending(core::ThreadPool* pool);
   // Leaves the output of the frame Relabel finished to Remember.
   void Defer(const core::PointCloudView& cloud, const SegmentationResult* result, bool have_counts);
 

@@ -1059,10 +1059,10 @@ Tracker::~Tracker() = default;
 
 void Tracker::Update(const SegmentationResult& frame, int64_t frame_seq, TrackingResult* out,
                      const core::PointCloudView& cloud, std::span<const float> scene_z) {
+  Associate(frame, frame_seq, out, cloud, scene_z);
   const auto t0 = std::chrono::steady_clock::now();
-  impl_->Associate(frame, frame_seq, out, cloud, scene_z);
   impl_->RememberSurfaces();
-  out->time_ms =
+  out->time_ms +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
 
