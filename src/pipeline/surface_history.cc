@@ -62,9 +62,10 @@ constexpr size_t kMaxNewViews = 1024;
 // confirmed (a new depth in front of or behind the surface). Each applies the same rule as
 // Update; all other pixels with a valid depth are marked in `todo` and left unchanged, so the
 // two variants give the same state after Update. Returns the number of valid pixels not
-// settled. Written without branches (bitwise operators
-// on 0/1 values, selects) and with restrict pointers, so the compiler vectorises it; the
-// variant without candidates moves half the bytes per pixel.
+// settled. Written without branches (conditions as all-ones or all-zero masks of the lane's
+// width, combined with bitwise operators and selects; no multiplications, which SSE2 has only
+// as a sequence of shuffles for 32-bit lanes) and with restrict pointers, so the compiler
+// vectorises it; the variant without candidates moves half the bytes per pixel.
 template <bool kCandidates>
 uint32_t StepWithoutBranches(size_t num, const float* __restrict zs,
                              const TemporalFilterParams band_params, int32_t now, int32_t confirm,
@@ -72,6 +73,8 @@ uint32_t StepWithoutBranches(size_t num, const float* __restrict zs,
                              float* __restrict cand_z, int32_t* __restrict cand_since,
                              uint8_t* __restrict cand_n, uint8_t* __restrict flags,
                              uint8_t* __restrict todo) {
+  // a where the mask m is all ones, else b.
+  const auto pick = [](int32_t m, int32_t a, int32_t b) { return (m & a) | (~m & b); };
   uint32_t changed = 0;
   for (size_t i = 0; i < num; ++i) {
     const float z = zs[i], r = ref_z[i];
@@ -79,6 +82,7 @@ uint32_t StepWithoutBranches(size_t num, const float* __restrict zs,
     const float band = band_params.BandAt(z);  // by value: no reload per pixel
     const int32_t valid = z > 0.f;
     const int32_t settled = valid & (std::abs(z - r) <= band);  // false for a NaN r
+    const int32_t settled_m = -settled;
     ref_z[i] = settled ? z : r;
     changed += static_cast<uint32_t>(valid & (settled ^ 1));
     if constexpr (kCandidates) {
@@ -87,18 +91,19 @@ uint32_t StepWithoutBranches(size_t num, const float* __restrict zs,
       const int32_t back = std::abs(z - old_z[i]) <= band;  // false for a NaN old_z
       const int32_t on_cand = (f & kOnCand) >> 2;
       const int32_t cont = on_cand & (std::abs(z - c) <= band);
-      const int32_t n_next = cont * (n + (n < 255)) + (1 - cont);
+      const int32_t n_next = pick(-cont, n + (n < 255), 1);
       const int32_t step = valid & (settled ^ 1) & (first ^ 1) & (back ^ 1) & (n_next < confirm);
-      const int32_t fresh = step & (cont ^ 1);  // a new candidate, direct after the surface
-      const int32_t fresh_f = (f & ~kDirect) | kOnCand | ((on_cand ^ 1) * kDirect);
+      const int32_t step_m = -step;
+      const int32_t fresh_m = -(step & (cont ^ 1));  // a new candidate, direct after the surface
+      const int32_t fresh_f = (f & ~kDirect) | kOnCand | ((on_cand - 1) & kDirect);
       cand_z[i] = step ? z : c;
-      cand_since[i] = fresh ? now : cand_since[i];
-      cand_n[i] = static_cast<uint8_t>((step * n_next + (1 - step) * n) * (1 - settled));
-      flags[i] = static_cast<uint8_t>((fresh * fresh_f + (1 - fresh) * f) & ~(settled * kOnCand));
+      cand_since[i] = pick(fresh_m, now, cand_since[i]);
+      cand_n[i] = static_cast<uint8_t>(pick(step_m, n_next, n) & ~settled_m);
+      flags[i] = static_cast<uint8_t>(pick(fresh_m, fresh_f, f) & ~(settled_m & kOnCand));
       todo[i] = static_cast<uint8_t>(valid & (settled ^ 1) & (step ^ 1));
     } else {
-      cand_n[i] = static_cast<uint8_t>(n * (1 - settled));
-      flags[i] = static_cast<uint8_t>(f & ~(settled * kOnCand));
+      cand_n[i] = static_cast<uint8_t>(n & ~settled_m);
+      flags[i] = static_cast<uint8_t>(f & ~(settled_m & kOnCand));
       todo[i] = static_cast<uint8_t>(valid & (settled ^ 1));
     }
   }
