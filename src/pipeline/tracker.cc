@@ -170,6 +170,9 @@ struct Tracker::Impl {
     // A track not yet confirmed absorbed in a merge whose keeper was not clearly more in view:
     // remembered like a confirmed one, for joined_view_frames frames.
     bool absorbed_tentative{false};
+    // A confirmed track absorbed in a merge, not seen since: remembered while its surface
+    // stays in view (TrackerParams::merged_memory).
+    bool merged_away{false};
   };
 
   Impl(const TrackerParams& p, const TemporalFilterParams& b, core::ThreadPool* q)
@@ -294,6 +297,7 @@ struct Tracker::Impl {
   std::vector<uint8_t> by_surface;      // per track (see the association scores)
   std::vector<int64_t> newcomer_from;   // per object: the track it is a newcomer on (-1: none)
   std::vector<uint8_t> keep_tentative;  // per track: absorbed_tentative from this frame
+  std::vector<uint8_t> merged_now;      // per track: merged_away from this frame
   std::vector<uint8_t> surface_pair;    // per object, of one track: allowed by its surface alone
   // Per remembered track and object: the object's pixels showing the track's remembered
   // surface (at its depth, within the band).
@@ -654,6 +658,7 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
 
   merged_det.assign(static_cast<size_t>(num_dets), 0);
   keep_tentative.assign(static_cast<size_t>(num_tracks), 0);
+  merged_now.assign(static_cast<size_t>(num_tracks), 0);
   split_by_size.assign(static_cast<size_t>(num_tracks), 0);
   // Splits: an object lying mostly on a track's previous mask is a part of the track; only
   // the part with the most points keeps it (with split_own_margin_m, the part nearest the
@@ -778,6 +783,11 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
           if (params.tentative_merge_memory && !t.confirmed && ib <= kMergeInViewFactor * i) {
             keep_tentative[static_cast<size_t>(r)] = 1;
           }
+          // Seen for memory_frames: an object the segmentation showed on its own, not a
+          // piece split off for a few frames while it was put down.
+          if (t.confirmed && t.seen >= params.memory_frames) {
+            merged_now[static_cast<size_t>(r)] = 1;
+          }
         }
       }
     }
@@ -881,6 +891,23 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
            params.part_min_fraction * static_cast<float>(t.remembered_pixels.size());
   };
 
+  // Whether most of a track's remembered surface is in view on an object, at its depth (a
+  // track absorbed in a merge whose object is still there).
+  auto in_view = [&](const Track& t) {
+    if (!with_depth || t.remembered_pixels.empty()) return false;
+    const uint32_t* cur = frame.labels.data.data();
+    uint32_t there = 0;
+    for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
+      const uint32_t i = t.remembered_pixels[k];
+      if (i >= num_pixels || cur[i] == 0 || cur[i] > cur_max_label) continue;
+      const float z = scene ? scene_z[i] : cloud.xyz[i].z, before = t.remembered_z[k];
+      there +=
+          std::fabs(before - z) < std::max(params.surface_change_min_step_m, band.BandAt(before));
+    }
+    return static_cast<float>(there) >=
+           params.part_min_fraction * static_cast<float>(t.remembered_pixels.size());
+  };
+
   // Update the matched tracks, age the others, end the expired ones.
   kept.clear();
   for (int r = 0; r < num_tracks; ++r) {
@@ -927,6 +954,7 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
       ++(was_visible ? out->counts.continued : out->counts.reacquired);
       t.last_seq = seq;
       t.absorbed_tentative = false;
+      t.merged_away = false;
       ++t.seen;
       t.confirmed = t.confirmed || t.seen >= params.confirm_frames;
       t.prev_label = o.id;
@@ -956,8 +984,10 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
     t.prev_label = 0;
     const int64_t since = seq - t.last_seq;
     if (keep_tentative[static_cast<size_t>(r)]) t.absorbed_tentative = true;
+    if (merged_now[static_cast<size_t>(r)]) t.merged_away = true;
     const int memory = MemoryFrames(t);
-    if (since > memory && !(t.confirmed && since <= params.hidden_memory_frames && hidden(t))) {
+    if (since > memory && !(t.confirmed && since <= params.hidden_memory_frames &&
+                            (hidden(t) || (params.merged_memory && t.merged_away && in_view(t))))) {
       out->ended_track_ids.push_back(t.id);
       continue;
     }

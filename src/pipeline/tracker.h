@@ -58,6 +58,13 @@ struct TrackerParams {
   /// mostly fell into holes then leaves it free to take the piece of it that showed again
   /// beside the occluder by its remembered surface. false = any mask overlap continues it.
   bool occluder_is_not_continuation{true};
+  /// With the frame's depth: a confirmed track seen for at least memory_frames frames and then
+  /// absorbed in a merge is remembered past memory_frames while at least part_min_fraction of its
+  /// remembered surface is in view on an object at its depth (its object still there, in
+  /// another's segment), up to hidden_memory_frames after it was last seen, and takes its id
+  /// back when it shows apart. A track seen for fewer frames (a piece split off for a few frames)
+  /// ends after memory_frames. false = it ends after memory_frames.
+  bool merged_memory{true};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).

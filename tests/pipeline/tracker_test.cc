@@ -503,6 +503,40 @@ std::vector<int64_t> SweptEndIds(bool occluder_is_not_continuation) {
   return ids;
 }
 
+// Two touching objects, apart for `apart_frames`, then segmented as one for longer than
+// memory_frames (both still there), then apart again: with merged_memory an absorbed track that
+// was seen for memory_frames is remembered while its surface stays in view and takes its id
+// back; without, or when it was seen for fewer frames (a piece split off for a few frames while
+// an object was put down), it has ended and the object gets a new id.
+std::vector<int64_t> LongMergeIds(bool merged_memory, int apart_frames) {
+  TrackerParams params;
+  params.merged_memory = merged_memory;
+  Tracker dut(params);
+  core::PointCloud cloud;
+  TrackingResult out;
+  int64_t seq = 0;
+  const auto step = [&](const std::vector<Surface>& surfaces) {
+    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
+    return Ids(out);
+  };
+  const Surface a{Rect{10, 10, 30, 30}, 1.0f, 1}, b{Rect{30, 10, 55, 30}, 1.0f, 2};
+  for (int f = 0; f < apart_frames; ++f) EXPECT_EQ(step({a, b}), (std::vector<int64_t>{1, 2}));
+  for (int f = 0; f < params.memory_frames + 20; ++f) {
+    EXPECT_EQ(step({Surface{Rect{10, 10, 55, 30}, 1.0f, 1}}), (std::vector<int64_t>{2})) << f;
+  }
+  return step({a, b});
+}
+
+TEST(TrackerMergedMemory, AnObjectMergedLongerThanTheMemoryGetsItsIdBackWhenApart) {
+  const int seen = TrackerParams{}.memory_frames;
+  EXPECT_EQ(LongMergeIds(true, seen), (std::vector<int64_t>{1, 2}));
+  EXPECT_EQ(LongMergeIds(false, seen), (std::vector<int64_t>{3, 2}));
+}
+
+TEST(TrackerMergedMemory, APieceSeenApartForAFewFramesIsNotRememberedThroughALongMerge) {
+  EXPECT_EQ(LongMergeIds(true, 7), (std::vector<int64_t>{3, 2}));
+}
+
 TEST(TrackerOccluder, AnEndShowingAgainBesideAnOccluderOverHolesKeepsTheObjectsId) {
   EXPECT_EQ(SweptEndIds(true), (std::vector<int64_t>{1, 2}));
   EXPECT_EQ(SweptEndIds(false), (std::vector<int64_t>{3, 2}));  // the occluder continued it
