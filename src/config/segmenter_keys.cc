@@ -23,6 +23,7 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(partition, hold_frames),
       CLUTTERSEG_SEGMENTER_KEY(partition, min_still_share),
       CLUTTERSEG_SEGMENTER_KEY(partition, min_cover_share),
+      CLUTTERSEG_SEGMENTER_KEY(partition, cut_piece_joins_rest),
       CLUTTERSEG_SEGMENTER_KEY(partition, min_pixels),
       CLUTTERSEG_SEGMENTER_KEY(partition, arrival_gap_frames),
       CLUTTERSEG_SEGMENTER_KEY(partition, arrival_confirm_frames),

@@ -285,6 +285,28 @@ bool PartitionPrior::Relabel(const core::PointCloudView& cloud, int64_t frame_se
     }
   }
 
+  // A held merge cuts back to each previous object its pixels; those of an object whose rest
+  // is a segment of its own now (lying within it, covering nothing else: the object was cut in
+  // two and one part merged with a neighbour) join that segment, so the object stays whole.
+  for (uint32_t r = 1; params_.cut_piece_joins_rest && r <= n; ++r) {
+    std::vector<uint32_t>& to = split_[r];
+    for (uint32_t p = 1; p <= m && !to.empty(); ++p) {
+      if (to[p] <= n) continue;  // not covered, or the keeper's group
+      uint32_t rest = 0;
+      for (uint32_t q = 1; q <= n; ++q) {
+        const uint32_t c = counts_rp_[q * stride + p];
+        if (q == r || c == 0 || !split_[q].empty() || covered_n_[q] > 1 || !still(q)) continue;
+        if (static_cast<float>(c) < params_.min_cover_share * still_r_[q]) continue;
+        if (rest == 0 || c > counts_rp_[rest * stride + p]) rest = q;
+      }
+      if (rest == 0) continue;
+      const uint32_t piece = to[p];
+      for (uint32_t k = 1; k <= m; ++k) {
+        if (to[k] == piece) to[k] = rest;
+      }
+    }
+  }
+
   // Splits: still segments lying within one previous object, each covering nothing else.
   for (uint32_t p = 1; holding && p <= m; ++p) {
     if (still_p_[p] < min_px || !established(p)) continue;

@@ -36,6 +36,12 @@ struct PartitionPriorParams {
   float min_cover_share{0.5f};
   /// Objects and segments with fewer still pixels than this are left as segmented.
   int min_pixels{100};
+  /// When a merge is held back, the pixels it cuts back to one previous object join the
+  /// segment of this frame that holds the rest of that object (lying within it, covering no
+  /// other), when there is one, instead of standing as a piece of their own: a previous object
+  /// that the segmentation cut in two while merging one part with a neighbour is published
+  /// whole, as before. false = the cut-back pixels are a piece of their own.
+  bool cut_piece_joins_rest{true};
 
   /// Objects by arrival (docs/method.md, "Objects by arrival"): a segment joining surfaces
   /// that arrived in front of the camera more than this many frames apart (a box put flush

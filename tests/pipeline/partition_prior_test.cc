@@ -197,6 +197,36 @@ TEST(PartitionPrior, ASplitOfAStillObjectIsHeldTheSameWay) {
   EXPECT_EQ(third.objects.size(), 2u);
 }
 
+// Box A cut in two by the segmentation, its right part (columns 18-29) merged with box B: the
+// held merge cuts that part back to A, and it joins A's left part (its own segment now), so A
+// is published whole, as before; without the rule A is two pieces.
+TEST(PartitionPrior, AnObjectCutInTwoWithOnePartMergedIsPublishedWhole) {
+  PartitionPriorParams without_rule = Hold(3);
+  without_rule.cut_piece_joins_rest = false;
+  PartitionPrior prior(Hold(3), TemporalFilterParams{}),
+      without(without_rule, TemporalFilterParams{});
+  const core::PointCloud cloud = Scene();
+  Establish(&prior, cloud);
+  Establish(&without, cloud);
+  const SegmentationResult cut =
+      Segmentation([](int u, int v) { return InBoxes(u, v) ? (u < 18 ? 1u : 2u) : 0u; });
+  for (int64_t seq = 5; seq <= 6; ++seq) {
+    const auto [r, w] = ApplyBoth(&prior, &without, cloud, seq, cut);
+    EXPECT_EQ(prior.counts().held_merges, 1) << seq;
+    ASSERT_EQ(r.objects.size(), 2u) << seq;
+    EXPECT_EQ(At(r, 12, 20), At(r, 25, 20)) << seq;  // A whole
+    EXPECT_NE(At(r, 25, 20), At(r, 40, 20)) << seq;
+    EXPECT_EQ(r.objects[At(r, 12, 20) - 1].num_points, 20u * 30u) << seq;
+    ASSERT_EQ(w.objects.size(), 3u) << seq;  // A in two pieces
+    EXPECT_NE(At(w, 12, 20), At(w, 25, 20)) << seq;
+  }
+  // The third frame in a row publishes the segmentation's partition (the merge has lasted).
+  SegmentationResult third = cut;
+  prior.Apply(cloud, 7, &third);
+  EXPECT_EQ(third.objects.size(), 2u);
+  EXPECT_EQ(At(third, 25, 20), At(third, 40, 20));
+}
+
 TEST(PartitionPrior, WhatMovedIsPublishedInTheFrameOfTheChange) {
   PartitionPrior prior(Hold(5), TemporalFilterParams{});
   Establish(&prior, Scene());
