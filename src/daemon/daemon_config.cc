@@ -124,6 +124,8 @@ const config::KeyTable<DaemonConfig>& DaemonKeys() {
           MakeKey("tracker.occluder_is_not_continuation", &C::tracker,
                   &T::occluder_is_not_continuation),
           MakeKey("tracker.merged_memory", &C::tracker, &T::merged_memory),
+          MakeKey("tracker.uncovered_view_not_reference", &C::tracker,
+                  &T::uncovered_view_not_reference),
           MakeKey("tracker.min_mask_overlap", &C::tracker, &T::min_mask_overlap),
           MakeKey("tracker.max_centroid_step_m", &C::tracker, &T::max_centroid_step_m),
           MakeKey("tracker.max_size_ratio", &C::tracker, &T::max_size_ratio),

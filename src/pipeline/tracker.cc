@@ -163,6 +163,7 @@ struct Tracker::Impl {
     core::Vec3f own_centroid;    // of its last view that held no other track
     uint32_t own_points{0};      // of that view
     int64_t joined_seq{-1};      // the last frame a new surface joined its view (-1: never)
+    int64_t uncovered_seq{-1};   // the last frame an uncovered surface joined it (-1: never)
     uint32_t stacked_points{0};  // of that view, the pixels that came in front (0: none)
     // The track whose segment this one began on, a newcomer joined to it (-1: none): the
     // other's remembered surface is not this one's (LeaveOutSurface).
@@ -929,6 +930,26 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
           static_cast<float>(nearer) >= params.part_min_fraction * static_cast<float>(t.own_points);
       const bool joined = stacked || (overlap && t.prev_label != 0 && t.confirmed &&
                                       counts[o.id] >= params.part_min_fraction * cur_size[o.id]);
+      // A view in which the pixels that were another object's in the previous frame and moved
+      // reach part_min_fraction of the track's own view (a surface uncovered behind an object
+      // taken away, segmented with a piece of the object behind that showed beside it) is not
+      // its reference view, nor for joined_view_frames frames while the view reaches out of
+      // the reference box: the piece's track does not take the uncovered size as its own
+      // (which would make it keep a merge with the object's larger part).
+      if (params.uncovered_view_not_reference && compare_depth && t.prev_label != 0 &&
+          t.confirmed) {
+        uint32_t uncovered = 0;
+        for (uint32_t q = 1; q <= prev_max_label; ++q) {
+          if (q != t.prev_label) uncovered += changed_counts[q * stride + o.id];
+        }
+        if (uncovered > 0 && static_cast<float>(uncovered) >=
+                                 params.part_min_fraction * static_cast<float>(t.own_points)) {
+          t.uncovered_seq = seq;
+        }
+      }
+      const bool uncovered_view =
+          t.uncovered_seq >= 0 && seq - t.uncovered_seq <= params.joined_view_frames &&
+          InsideShare(Box{o.aabb_min, o.aabb_max}, t.ref_box) < params.part_min_fraction;
       if (joined) {
         t.joined_seq = seq;
         t.stacked_points = stacked ? nearer : 0u;
@@ -967,7 +988,8 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
         t.own_points = o.num_points;
       }
       t.ref_points *= params.reference_decay;
-      if (own_view && (restart_view || static_cast<float>(o.num_points) >= t.ref_points)) {
+      if (own_view && !uncovered_view &&
+          (restart_view || static_cast<float>(o.num_points) >= t.ref_points)) {
         t.ref_points = static_cast<float>(o.num_points);
         t.ref_box = t.box;
         if (with_depth) to_remember.push_back({kept.size(), d, det_pixel_count(d)});

@@ -65,6 +65,13 @@ struct TrackerParams {
   /// back when it shows apart. A track seen for fewer frames (a piece split off for a few frames)
   /// ends after memory_frames. false = it ends after memory_frames.
   bool merged_memory{true};
+  /// With the frame's depth: a confirmed track's view in which the pixels that were another
+  /// object's in the previous frame and moved reach part_min_fraction of its own view (a surface
+  /// uncovered behind an object taken away, segmented with a piece of the object behind that
+  /// showed beside it) is not its reference view, nor for joined_view_frames frames while the
+  /// view reaches out of the reference box: the piece's track does not take the uncovered size
+  /// as its own, which would make it keep a merge with the object's larger part. false = it is.
+  bool uncovered_view_not_reference{true};
 
   /// An object of this frame and a track seen in the previous frame are associated by their
   /// masks when their pixels overlap by at least this share of the smaller mask (0..1).

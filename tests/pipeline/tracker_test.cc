@@ -537,6 +537,36 @@ TEST(TrackerMergedMemory, APieceSeenApartForAFewFramesIsNotRememberedThroughALon
   EXPECT_EQ(LongMergeIds(true, 7), (std::vector<int64_t>{3, 2}));
 }
 
+// An object mostly hidden behind another, with a piece of it showing beside the occluder under
+// a track of its own. The occluder is taken away and the surface it hid is segmented with the
+// piece; then the whole object is one segment. With uncovered_view_not_reference the merge goes to
+// the track of the object's larger part, whose view was its own; without, to the piece's track,
+// whose view the uncovered surface had made the larger.
+std::vector<int64_t> UncoveredMergeIds(bool uncovered_view_not_reference) {
+  TrackerParams params;
+  params.uncovered_view_not_reference = uncovered_view_not_reference;
+  Tracker dut(params);
+  core::PointCloud cloud;
+  TrackingResult out;
+  int64_t seq = 0;
+  const auto step = [&](const std::vector<Surface>& surfaces) {
+    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
+    return Ids(out);
+  };
+  const Surface part{Rect{10, 10, 30, 30}, 1.0f, 1}, occluder{Rect{30, 10, 55, 30}, 0.9f, 2},
+      piece{Rect{55, 10, 60, 30}, 1.0f, 3};
+  for (int f = 0; f < 5; ++f) {
+    EXPECT_EQ(step({part, occluder, piece}), (std::vector<int64_t>{1, 2, 3})) << f;
+  }
+  EXPECT_EQ(step({part, Surface{Rect{30, 10, 60, 30}, 1.0f, 2}}), (std::vector<int64_t>{1, 3}));
+  return step({Surface{Rect{10, 10, 60, 30}, 1.0f, 1}});
+}
+
+TEST(TrackerUncovered, AMergeAfterAnUncoveringGoesToTheObjectsLargerPart) {
+  EXPECT_EQ(UncoveredMergeIds(true), (std::vector<int64_t>{1}));
+  EXPECT_EQ(UncoveredMergeIds(false), (std::vector<int64_t>{3}));
+}
+
 TEST(TrackerOccluder, AnEndShowingAgainBesideAnOccluderOverHolesKeepsTheObjectsId) {
   EXPECT_EQ(SweptEndIds(true), (std::vector<int64_t>{1, 2}));
   EXPECT_EQ(SweptEndIds(false), (std::vector<int64_t>{3, 2}));  // the occluder continued it
