@@ -878,34 +878,22 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
     return false;
   };
 
-  // Whether most of a track's remembered surface is hidden behind something nearer now.
-  auto hidden = [&](const Track& t) {
+  // Whether at least part_min_fraction of a track's remembered surface is hidden behind
+  // something nearer now (`in_view` false), or in view on an object at its remembered depth
+  // (`in_view` true: a track absorbed in a merge whose object is still there).
+  auto mostly = [&](const Track& t, bool in_view) {
     if (!with_depth || t.remembered_pixels.empty()) return false;
-    uint32_t behind = 0;
+    const uint32_t* cur = frame.labels.data.data();
+    uint32_t n = 0;
     for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
       const uint32_t i = t.remembered_pixels[k];
       if (i >= num_pixels) continue;
       const float z = scene ? scene_z[i] : cloud.xyz[i].z, before = t.remembered_z[k];
-      behind += before - z >= std::max(params.surface_change_min_step_m, band.BandAt(before));
+      const float step = std::max(params.surface_change_min_step_m, band.BandAt(before));
+      n += in_view ? cur[i] != 0 && cur[i] <= cur_max_label && std::fabs(before - z) < step
+                   : before - z >= step;
     }
-    return static_cast<float>(behind) >=
-           params.part_min_fraction * static_cast<float>(t.remembered_pixels.size());
-  };
-
-  // Whether most of a track's remembered surface is in view on an object, at its depth (a
-  // track absorbed in a merge whose object is still there).
-  auto in_view = [&](const Track& t) {
-    if (!with_depth || t.remembered_pixels.empty()) return false;
-    const uint32_t* cur = frame.labels.data.data();
-    uint32_t there = 0;
-    for (size_t k = 0; k < t.remembered_pixels.size(); ++k) {
-      const uint32_t i = t.remembered_pixels[k];
-      if (i >= num_pixels || cur[i] == 0 || cur[i] > cur_max_label) continue;
-      const float z = scene ? scene_z[i] : cloud.xyz[i].z, before = t.remembered_z[k];
-      there +=
-          std::fabs(before - z) < std::max(params.surface_change_min_step_m, band.BandAt(before));
-    }
-    return static_cast<float>(there) >=
+    return static_cast<float>(n) >=
            params.part_min_fraction * static_cast<float>(t.remembered_pixels.size());
   };
 
@@ -938,10 +926,9 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
       // (which would make it keep a merge with the object's larger part).
       if (params.uncovered_view_not_reference && compare_depth && t.prev_label != 0 &&
           t.confirmed) {
-        uint32_t uncovered = 0;
-        for (uint32_t q = 1; q <= prev_max_label; ++q) {
-          if (q != t.prev_label) uncovered += changed_counts[q * stride + o.id];
-        }
+        // The view's moved pixels less those that were background or its own.
+        const uint32_t uncovered =
+            moved_size[o.id] - changed_counts[o.id] - changed_counts[t.prev_label * stride + o.id];
         if (uncovered > 0 && static_cast<float>(uncovered) >=
                                  params.part_min_fraction * static_cast<float>(t.own_points)) {
           t.uncovered_seq = seq;
@@ -1008,8 +995,9 @@ void Tracker::Impl::Associate(const SegmentationResult& frame, int64_t seq, Trac
     if (keep_tentative[static_cast<size_t>(r)]) t.absorbed_tentative = true;
     if (merged_now[static_cast<size_t>(r)]) t.merged_away = true;
     const int memory = MemoryFrames(t);
-    if (since > memory && !(t.confirmed && since <= params.hidden_memory_frames &&
-                            (hidden(t) || (params.merged_memory && t.merged_away && in_view(t))))) {
+    if (since > memory &&
+        !(t.confirmed && since <= params.hidden_memory_frames &&
+          (mostly(t, false) || (params.merged_memory && t.merged_away && mostly(t, true))))) {
       out->ended_track_ids.push_back(t.id);
       continue;
     }

@@ -474,6 +474,23 @@ TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderWithoutDepthGetsTheObj
   }
 }
 
+// A tracker with `params` fed frames with their depth, one per call; returns the frame's ids.
+class DepthSequence {
+ public:
+  explicit DepthSequence(const TrackerParams& params) : dut_(params) {}
+  std::vector<int64_t> operator()(const std::vector<Surface>& surfaces) {
+    dut_.Update(MakeDepthFrame(surfaces, &cloud_), seq_++, &out_, cloud_);
+    return Ids(out_);
+  }
+  const TrackingResult& out() const { return out_; }
+
+ private:
+  Tracker dut_;
+  core::PointCloud cloud_;
+  TrackingResult out_;
+  int64_t seq_{0};
+};
+
 // An occluder (a segment of its own) sweeps right across a long object with nothing behind it:
 // first the object's left part is hidden, then its middle, while its left end shows again and
 // most of what the track held in the previous frame falls into holes (no depth). The occluder
@@ -483,14 +500,7 @@ TEST_F(TrackerDepthTest, AnEndShowingAgainBesideAnOccluderWithoutDepthGetsTheObj
 std::vector<int64_t> SweptEndIds(bool occluder_is_not_continuation) {
   TrackerParams params;
   params.occluder_is_not_continuation = occluder_is_not_continuation;
-  Tracker dut(params);
-  core::PointCloud cloud;
-  TrackingResult out;
-  int64_t seq = 0;
-  const auto step = [&](const std::vector<Surface>& surfaces) {
-    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
-    return Ids(out);
-  };
+  DepthSequence step(params);
   for (int f = 0; f < 4; ++f) {
     EXPECT_EQ(step({Surface{Rect{10, 10, 60, 30}, 1.0f, 1}}), (std::vector<int64_t>{1}));
   }
@@ -499,7 +509,7 @@ std::vector<int64_t> SweptEndIds(bool occluder_is_not_continuation) {
   // The occluder over columns 22-40: 100 of the 500 pixels the track held, the other 400 holes.
   const std::vector<int64_t> ids =
       step({Surface{Rect{10, 10, 22, 30}, 1.0f, 1}, Surface{Rect{22, 10, 40, 30}, 0.6f, 2}});
-  EXPECT_FALSE(out.objects[0].reacquired);
+  EXPECT_FALSE(step.out().objects[0].reacquired);
   return ids;
 }
 
@@ -511,14 +521,7 @@ std::vector<int64_t> SweptEndIds(bool occluder_is_not_continuation) {
 std::vector<int64_t> LongMergeIds(bool merged_memory, int apart_frames) {
   TrackerParams params;
   params.merged_memory = merged_memory;
-  Tracker dut(params);
-  core::PointCloud cloud;
-  TrackingResult out;
-  int64_t seq = 0;
-  const auto step = [&](const std::vector<Surface>& surfaces) {
-    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
-    return Ids(out);
-  };
+  DepthSequence step(params);
   const Surface a{Rect{10, 10, 30, 30}, 1.0f, 1}, b{Rect{30, 10, 55, 30}, 1.0f, 2};
   for (int f = 0; f < apart_frames; ++f) EXPECT_EQ(step({a, b}), (std::vector<int64_t>{1, 2}));
   for (int f = 0; f < params.memory_frames + 20; ++f) {
@@ -545,14 +548,7 @@ TEST(TrackerMergedMemory, APieceSeenApartForAFewFramesIsNotRememberedThroughALon
 std::vector<int64_t> UncoveredMergeIds(bool uncovered_view_not_reference) {
   TrackerParams params;
   params.uncovered_view_not_reference = uncovered_view_not_reference;
-  Tracker dut(params);
-  core::PointCloud cloud;
-  TrackingResult out;
-  int64_t seq = 0;
-  const auto step = [&](const std::vector<Surface>& surfaces) {
-    dut.Update(MakeDepthFrame(surfaces, &cloud), seq++, &out, cloud);
-    return Ids(out);
-  };
+  DepthSequence step(params);
   const Surface part{Rect{10, 10, 30, 30}, 1.0f, 1}, occluder{Rect{30, 10, 55, 30}, 0.9f, 2},
       piece{Rect{55, 10, 60, 30}, 1.0f, 3};
   for (int f = 0; f < 5; ++f) {
