@@ -6,7 +6,9 @@
 //
 // GT and PRED are two PCD files with a label field (points matched by index), or two
 // directories whose *.pcd files are matched by name. stdout: a per-frame table and a summary
-// (unless --quiet), then, as the last line, one JSON object. A pair that cannot be scored (a
+// (unless --quiet), then, as the last line, one JSON object. Besides WOv, precision and recall
+// it says where the overlap is lost (loss_merged, loss_split, loss_boundary, loss_background,
+// adding up to 1 - WOv; eval/metrics.h defines them). A pair that cannot be scored (a
 // file that cannot be read, no label field, different point counts or image layouts) is
 // reported on stderr and left out; the others are still scored, the JSON line then carries
 // "failed": N and the exit code is 5. Exit codes (core/exit_codes.h): 0 ok, 5 some pairs
@@ -215,6 +217,11 @@ void PrintSummary(const Summary& s, const EvalParams& params, int missing, doubl
               Fixed(s.recall, scored).c_str(), Fixed(s.f1, scored).c_str());
   std::printf("  TP %s   FP %s   FN %s\n", Fixed(s.tp, scored).c_str(), Fixed(s.fp, scored).c_str(),
               Fixed(s.fn, scored).c_str());
+  std::printf(
+      "  1 - WOv lost to merges %s, split objects %s, borders between objects %s, "
+      "borders with the background %s\n",
+      Fixed(s.loss_merged, scored).c_str(), Fixed(s.loss_split, scored).c_str(),
+      Fixed(s.loss_boundary, scored).c_str(), Fixed(s.loss_background, scored).c_str());
   std::printf(
       "  per frame: %.2f objects, %.2f segments, %.2f over-segmented, %.2f "
       "under-segmented (coverage >= %d%%)\n",

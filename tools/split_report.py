@@ -35,6 +35,8 @@ CATEGORIES = ("boxes", "stacked", "occluded", "cylindric", "mixed", "complex")
 TUNING_PILES = ("piles2101", "piles2102")
 HELD_OUT_PILES = ("piles2001", "piles2002")
 ROOMS = ("rooms7", "rooms101")
+# Where the overlap is lost (clutterseg-eval's CSV columns; they add up to 1 - WOv).
+LOSSES = ("loss_merged", "loss_split", "loss_boundary", "loss_background")
 
 
 def run(cmd):
@@ -85,7 +87,8 @@ def score(build, out, data, sets, convention, tag, options):
                     rows[c] = picked
         else:
             rows[name] = frames
-    return {k: (mean(v, "wov"), mean(v, "f1"), sum(int(r["under_segmented"]) for r in v))
+    return {k: (mean(v, "wov"), mean(v, "f1"), sum(int(r["under_segmented"]) for r in v),
+                tuple(mean(v, key) for key in LOSSES) if LOSSES[0] in v[0] else None)
             for k, v in rows.items()}
 
 
@@ -113,7 +116,14 @@ def main():
     print("| configuration | " + " | ".join(splits) + " |")
     print("|---" * (len(splits) + 1) + "|")
     for name, s in cands:
-        print("| %s | " % name + " | ".join("%.4f / %.4f (%d)" % s[k] for k in splits) + " |")
+        print("| %s | " % name + " | ".join("%.4f / %.4f (%d)" % s[k][:3] for k in splits) + " |")
+    print("\nWhere the overlap is lost, 1 - WOv as merged / split / borders between objects / "
+          "borders with the background:\n")
+    print("| configuration | " + " | ".join(splits) + " |")
+    print("|---" * (len(splits) + 1) + "|")
+    for name, s in cands:
+        print("| %s | " % name + " | ".join(
+            "%.4f / %.4f / %.4f / %.4f" % s[k][3] if s[k][3] else "n/a" for k in splits) + " |")
     ref_name, ref = cands[0]
     print("\nLeave one out (choice on the other mOSD categories and the tuning piles; "
           "WOv / F1 held out):\n")

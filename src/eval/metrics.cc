@@ -152,6 +152,7 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
   m.scored = false;
   m.wov = m.tp = m.fp = m.fn = m.precision = m.recall = m.f1 = 0.0;
   m.over_segmented = m.under_segmented = 0;
+  m.loss_merged = m.loss_split = m.loss_boundary = m.loss_background = 0.0;
   m.objects.clear();
 
   // 1. Sparse contingency table: consecutive equal (gt id, pred) keys are counted as one
@@ -278,7 +279,71 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
     begin = end;
   }
 
-  // 5. Frame figures.
+  // 5. Where the overlap is lost: each object's error points by cause (FrameMetrics). The
+  //    points of its best segment on other objects come from the table sorted by segment.
+  pairs_by_segment_.clear();
+  for (const auto& [key, count] : pairs_) {
+    pairs_by_segment_.emplace_back((uint64_t{pred_of(key)} << 32) | gt_of(key), count);
+  }
+  std::sort(pairs_by_segment_.begin(), pairs_by_segment_.end());
+  const auto object_size = [&m](uint32_t gt_id) {
+    const auto it =
+        std::lower_bound(m.objects.begin(), m.objects.end(), gt_id,
+                         [](const ObjectScore& obj, uint32_t value) { return obj.gt_id < value; });
+    CLUTTERSEG_DEMAND(it != m.objects.end() && it->gt_id == gt_id);
+    return static_cast<uint64_t>(it->size);
+  };
+  enum Cause { kMerged, kSplit, kBoundary, kBackground };
+  double lost[4] = {0.0, 0.0, 0.0, 0.0};
+  size_t counts[4];
+  begin = 0;
+  obj_index = 0;
+  while (begin < pairs_.size()) {
+    const uint32_t gt_id = gt_of(pairs_[begin].first);
+    size_t end = begin;
+    while (end < pairs_.size() && gt_of(pairs_[end].first) == gt_id) ++end;
+    if (gt_id != 0) {
+      const ObjectScore& obj = m.objects[obj_index++];
+      std::fill(counts, counts + 4, size_t{0});
+      // Points of g_i outside s_i, by the segment holding them.
+      for (size_t i = begin; i < end; ++i) {
+        const uint32_t label = pred_of(pairs_[i].first);
+        if (label != 0 && label == obj.best_segment) continue;
+        const size_t count = pairs_[i].second;
+        if (label == 0) {
+          counts[kBackground] += count;
+          continue;
+        }
+        const bool covers_own = covers(count, obj.size);
+        const int covered = segment_cover_counts_[FindIndex(segment_cover_counts_, label)].second;
+        const bool covers_other = covered - (covers_own ? 1 : 0) >= 1;
+        counts[!covers_other ? kSplit : (covers_own ? kMerged : kBoundary)] += count;
+      }
+      // Points of s_i outside g_i, by the object they belong to.
+      if (obj.best_segment != 0) {
+        const uint64_t first = uint64_t{obj.best_segment} << 32;
+        for (auto it = std::lower_bound(pairs_by_segment_.begin(), pairs_by_segment_.end(),
+                                        std::make_pair(first, size_t{0}));
+             it != pairs_by_segment_.end() && (it->first >> 32) == obj.best_segment; ++it) {
+          const auto other = static_cast<uint32_t>(it->first & 0xffffffffu);
+          if (other == gt_id) continue;
+          if (other == 0) {
+            counts[kBackground] += it->second;
+          } else {
+            counts[covers(it->second, object_size(other)) ? kMerged : kBoundary] += it->second;
+          }
+        }
+      }
+      // Each error point weighs |g_i| / |g_i ∪ s_i|, so they add up to |g_i| (1 - Ov_i).
+      const double weight =
+          static_cast<double>(obj.size) /
+          static_cast<double>(obj.size + obj.best_segment_size - obj.intersection);
+      for (int c = 0; c < 4; ++c) lost[c] += weight * static_cast<double>(counts[c]);
+    }
+    begin = end;
+  }
+
+  // 6. Frame figures.
   m.num_gt_objects = static_cast<int>(m.objects.size());
   if (m.objects.empty()) return;
   m.scored = true;
@@ -301,6 +366,10 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
   m.precision = SafeRatio(m.tp, m.tp + m.fp);
   m.recall = SafeRatio(m.tp, m.tp + m.fn);
   m.f1 = SafeRatio(2.0 * m.precision * m.recall, m.precision + m.recall);
+  m.loss_merged = lost[kMerged] / total_size;
+  m.loss_split = lost[kSplit] / total_size;
+  m.loss_boundary = lost[kBoundary] / total_size;
+  m.loss_background = lost[kBackground] / total_size;
 }
 
 Summary Summarize(std::span<const FrameMetrics> frames) {
@@ -320,6 +389,10 @@ Summary Summarize(std::span<const FrameMetrics> frames) {
     s.precision += f.precision;
     s.recall += f.recall;
     s.f1 += f.f1;
+    s.loss_merged += f.loss_merged;
+    s.loss_split += f.loss_split;
+    s.loss_boundary += f.loss_boundary;
+    s.loss_background += f.loss_background;
   }
   if (s.frames_scored > 0) {
     const double n = s.frames_scored;
@@ -330,6 +403,10 @@ Summary Summarize(std::span<const FrameMetrics> frames) {
     s.precision /= n;
     s.recall /= n;
     s.f1 /= n;
+    s.loss_merged /= n;
+    s.loss_split /= n;
+    s.loss_boundary /= n;
+    s.loss_background /= n;
   }
   if (s.frames > 0) {
     const double n = s.frames;

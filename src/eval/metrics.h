@@ -85,6 +85,18 @@ struct ObjectScore {
 /// - Over-segmented object: g_i covered (>= min_coverage_percent of its points) by two or
 ///   more segments. Under-segmented object: g_i covered by a segment that also covers
 ///   another ground-truth object.
+/// - Where the overlap is lost: 1 - wov = sum |g_i| (1 - Ov_i) / sum |g_i|, and object i's
+///   part of it is shared equally by its error points FN_i and FP_i (each weighs
+///   |g_i| / |g_i ∪ s_i|). An error point's cause is one of four, so that
+///   wov + loss_merged + loss_split + loss_boundary + loss_background = 1:
+///   * merged: a point of g_i in a segment covering g_i and another object, or a point of
+///     s_i \ g_i on an object that s_i covers (objects in one segment);
+///   * split: a point of g_i in a segment covering no other object (a piece of g_i alone);
+///   * boundary: a point of g_i in a segment covering another object but not g_i, or a
+///     point of s_i \ g_i on an object that s_i does not cover (a border between objects
+///     drawn in the wrong place);
+///   * background: a point of g_i predicted 0, or a point of s_i on the ground truth's
+///     background (a border with the table or the scene).
 /// A frame without ground-truth objects has `scored == false` and all ratios 0; it is left
 /// out of the means of Summarize().
 struct FrameMetrics {
@@ -102,6 +114,10 @@ struct FrameMetrics {
   double f1{0.0};
   int over_segmented{0};             ///< ground-truth objects that are over-segmented
   int under_segmented{0};            ///< ground-truth objects that are under-segmented
+  double loss_merged{0.0};           ///< the part of 1 - wov lost to merges (see above)
+  double loss_split{0.0};            ///< ... to pieces of an object standing alone
+  double loss_boundary{0.0};         ///< ... to borders between objects
+  double loss_background{0.0};       ///< ... to borders with the background
   std::vector<ObjectScore> objects;  ///< one per ground-truth object, by increasing gt_id
 };
 
@@ -154,6 +170,7 @@ class FrameEvaluator {
   // Scratch: contingency counts keyed by (gt_id << 32 | pred), then sorted by key.
   internal::CountTable table_;
   std::vector<std::pair<uint64_t, size_t>> pairs_;
+  std::vector<std::pair<uint64_t, size_t>> pairs_by_segment_;  // keys (pred << 32 | gt id)
   std::vector<std::pair<uint32_t, size_t>> segment_sizes_;
   std::vector<std::pair<uint32_t, int>> segment_cover_counts_;
 };
@@ -170,6 +187,10 @@ struct Summary {
   double precision{0.0};
   double recall{0.0};
   double f1{0.0};
+  double loss_merged{0.0};
+  double loss_split{0.0};
+  double loss_boundary{0.0};
+  double loss_background{0.0};
   // Totals over all frames, and their means per frame (over all frames).
   long gt_objects{0};
   long segments{0};

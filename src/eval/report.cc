@@ -70,6 +70,10 @@ std::string SummaryToJson(const Summary& summary, const EvalParams& params,
   AppendField(&j, "tp", quality(summary.tp));
   AppendField(&j, "fp", quality(summary.fp));
   AppendField(&j, "fn", quality(summary.fn));
+  AppendField(&j, "loss_merged", quality(summary.loss_merged));
+  AppendField(&j, "loss_split", quality(summary.loss_split));
+  AppendField(&j, "loss_boundary", quality(summary.loss_boundary));
+  AppendField(&j, "loss_background", quality(summary.loss_background));
   AppendField(&j, "gt_objects", std::to_string(summary.gt_objects));
   AppendField(&j, "segments", std::to_string(summary.segments));
   AppendField(&j, "over_segmented", std::to_string(summary.over_segmented));
@@ -84,7 +88,8 @@ std::string SummaryToJson(const Summary& summary, const EvalParams& params,
 
 std::string CsvHeader() {
   return "frame,points,valid_points,gt_objects,segments,wov,precision,recall,f1,tp,fp,fn,"
-         "over_segmented,under_segmented,missing_prediction";
+         "over_segmented,under_segmented,missing_prediction,loss_merged,loss_split,loss_boundary,"
+         "loss_background";
 }
 
 std::string CsvRow(std::string_view frame, const FrameMetrics& m, bool missing_prediction) {
@@ -104,6 +109,10 @@ std::string CsvRow(std::string_view frame, const FrameMetrics& m, bool missing_p
   AppendCsv(&r, std::to_string(m.over_segmented));
   AppendCsv(&r, std::to_string(m.under_segmented));
   r += missing_prediction ? ",1" : ",0";
+  AppendCsv(&r, quality(m.loss_merged));
+  AppendCsv(&r, quality(m.loss_split));
+  AppendCsv(&r, quality(m.loss_boundary));
+  AppendCsv(&r, quality(m.loss_background));
   return r;
 }
 

@@ -959,6 +959,14 @@ PYBIND11_MODULE(_core, m) {
       .def_readonly("f1", &FrameMetrics::f1, "2 P R / (P + R)")
       .def_readonly("over_segmented", &FrameMetrics::over_segmented)
       .def_readonly("under_segmented", &FrameMetrics::under_segmented)
+      .def_readonly("loss_merged", &FrameMetrics::loss_merged,
+                    "the part of 1 - wov lost to objects in one segment")
+      .def_readonly("loss_split", &FrameMetrics::loss_split,
+                    "the part of 1 - wov lost to pieces of an object standing alone")
+      .def_readonly("loss_boundary", &FrameMetrics::loss_boundary,
+                    "the part of 1 - wov lost to borders between objects")
+      .def_readonly("loss_background", &FrameMetrics::loss_background,
+                    "the part of 1 - wov lost to borders with the background")
       .def_readonly("objects", &FrameMetrics::objects, "list of ObjectScore, by gt_id")
       .def("__repr__", [](const FrameMetrics& f) {
         char s[160];

@@ -19,7 +19,8 @@ import struct
 import subprocess
 import sys
 
-RATIO_KEYS = ("wov", "precision", "recall", "f1", "tp", "fp", "fn")
+RATIO_KEYS = ("wov", "precision", "recall", "f1", "tp", "fp", "fn", "loss_merged", "loss_split",
+              "loss_boundary", "loss_background")
 COUNT_KEYS = ("frames", "frames_scored", "missing", "gt_objects", "segments",
               "over_segmented", "under_segmented")
 NAN = float("nan")
@@ -205,6 +206,10 @@ def compare(label, got, want):
         check(got.get(key) == want.get(key),
               "%s: %s tool %r reference %r" % (label, key, got.get(key), want.get(key)))
     check(got.get("convention") == want.get("convention"), label + ": convention differs")
+    for name, result in (("tool", got), ("reference", want)):
+        if result.get("wov") is not None:
+            total = result["wov"] + sum(result[key] for key in RATIO_KEYS if key.startswith("loss_"))
+            check(abs(total - 1.0) <= 1e-6, "%s: %s wov + losses = %r, not 1" % (label, name, total))
 
 
 class RefArgs:

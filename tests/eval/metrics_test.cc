@@ -152,6 +152,32 @@ TEST(MetricsTest, LeakageOntoBackgroundIsFalsePositive) {
 
 // Empty prediction: no segment overlaps anything, so TP_i = 0, FN_i = 1, FP_i = 0 and the
 // precision 0/0 is defined as 0.
+// Object 1: 80 points in segment 1, a piece of 20 alone in segment 2. Object 2: 95 in
+// segment 4 with 10 background points, 5 in object 1's segment. Objects 3 (100) and 4 (50):
+// one segment, 3. Background: 50 points, 10 of them in segment 4.
+TEST(MetricsTest, TheLostOverlapIsSharedByCause) {
+  const Frame f = MakeFrame(
+      Cat({Rep(100, 1), Rep(100, 2), Rep(100, 3), Rep(50, 4), Rep(50, 0)}),
+      Cat({Rep(80, 1), Rep(20, 2), Rep(95, 4), Rep(5, 1), Rep(150, 3), Rep(10, 4), Rep(40, 0)}));
+  const FrameMetrics m = Score(f);
+  const double total = 350.0;
+  // Each error point of object i weighs |g_i| / |g_i ∪ s_i|.
+  EXPECT_NEAR(m.loss_merged, (50.0 * 100.0 / 150.0 + 100.0 * 50.0 / 150.0) / total, kTol);
+  EXPECT_NEAR(m.loss_split, 20.0 * 100.0 / 105.0 / total, kTol);
+  EXPECT_NEAR(m.loss_boundary, (5.0 * 100.0 / 105.0 + 5.0 * 100.0 / 110.0) / total, kTol);
+  EXPECT_NEAR(m.loss_background, 10.0 * 100.0 / 110.0 / total, kTol);
+  EXPECT_NEAR(m.wov + m.loss_merged + m.loss_split + m.loss_boundary + m.loss_background, 1.0,
+              kTol);
+}
+
+TEST(MetricsTest, AnObjectNoSegmentTouchesIsLostToTheBackground) {
+  const FrameMetrics m =
+      Score(MakeFrame(Cat({Rep(30, 1), Rep(10, 2)}), Cat({Rep(30, 0), Rep(10, 5)})));
+  EXPECT_NEAR(m.wov, 10.0 / 40.0, kTol);
+  EXPECT_NEAR(m.loss_background, 30.0 / 40.0, kTol);
+  EXPECT_NEAR(m.loss_merged + m.loss_split + m.loss_boundary, 0.0, kTol);
+}
+
 TEST(MetricsTest, EmptyPredictionScoresZero) {
   const auto gt = Cat({Rep(4, 0), Rep(5, 1), Rep(3, 2)});
   const FrameMetrics m = Score(MakeFrame(gt, Rep(gt.size(), 0)));

@@ -21,6 +21,13 @@ Definitions (the same readings as src/eval/metrics.h):
   * a segment covers g_i when it holds >= coverage-percent of g_i; g_i is over-segmented
     when two or more segments cover it, under-segmented when a segment covering it also
     covers another ground-truth object;
+  * where the overlap is lost: every point of g_i outside s_i and of s_i outside g_i weighs
+    |g_i| / |g_i | s_i| (all of g_i weighs 1 when no segment touches it) and goes to one
+    cause: merged (a point of g_i in a segment covering g_i and another object; a point of
+    s_i on an object s_i covers), split (a point of g_i in a segment covering no other
+    object), boundary (a point of g_i in a segment covering another object but not g_i; a
+    point of s_i on an object it does not cover), background (a point of g_i predicted 0; a
+    point of s_i on no object); loss_<cause> is the weights' sum over sum |g_i|;
   * several frames: quality figures are means over frames that have ground-truth objects,
     counts are totals.
 """
@@ -159,6 +166,11 @@ def score_frame(xyz_ok, gt_raw, pred, convention, ocid_background, coverage_perc
     def covers(seg, obj):
         return 100 * len(segments[seg] & objects[obj]) >= coverage_percent * len(objects[obj])
 
+    gt_of = {}
+    for g, points_g in objects.items():
+        for k in points_g:
+            gt_of[k] = g
+    lost = {"merged": 0.0, "split": 0.0, "boundary": 0.0, "background": 0.0}
     result = {"gt_objects": len(objects), "segments": len(segments), "scored": bool(objects)}
     tps, fps, fns = [], [], []
     weighted = 0.0
@@ -182,6 +194,20 @@ def score_frame(xyz_ok, gt_raw, pred, convention, ocid_background, coverage_perc
             tps.append(len(tp_set) / len(points_g))
             fps.append(len(s - tp_set) / len(s))
             fns.append(len(points_g - tp_set) / len(points_g))
+        s = segments[best] if best is not None else set()
+        weight = len(points_g) / len(points_g | s)
+        for k in points_g - s:
+            j = pred[k]
+            if j == 0:
+                cause = "background"
+            else:
+                others = [o for o in objects if o != g and covers(j, o)]
+                cause = "split" if not others else ("merged" if covers(j, g) else "boundary")
+            lost[cause] += weight
+        for k in s - points_g:
+            o = gt_of.get(k, 0)
+            cause = "background" if o == 0 else ("merged" if covers(best, o) else "boundary")
+            lost[cause] += weight
         covering = [j for j in touching if covers(j, g)]
         if len(covering) >= 2:
             over += 1
@@ -198,6 +224,8 @@ def score_frame(xyz_ok, gt_raw, pred, convention, ocid_background, coverage_perc
         total = sum(len(p) for p in objects.values())
         result.update(wov=weighted / total, tp=tp, fp=fp, fn=fn, precision=precision,
                       recall=recall, f1=f1)
+        for cause, value in lost.items():
+            result["loss_" + cause] = value / total
     return result
 
 
@@ -221,7 +249,8 @@ def summarize(frames, args, missing):
     scored = [f for f in frames if f["scored"]]
     out = {"convention": args.gt_convention, "frames": len(frames),
            "frames_scored": len(scored), "missing": missing}
-    for key in ("wov", "precision", "recall", "f1", "tp", "fp", "fn"):
+    for key in ("wov", "precision", "recall", "f1", "tp", "fp", "fn", "loss_merged",
+                "loss_split", "loss_boundary", "loss_background"):
         out[key] = sum(f[key] for f in scored) / len(scored) if scored else None
     for key in ("gt_objects", "segments", "over_segmented", "under_segmented"):
         out[key] = sum(f[key] for f in frames)

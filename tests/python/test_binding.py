@@ -149,7 +149,8 @@ def test_evaluate_equals_clutterseg_eval(work_dir, scene, convention):
                                    convention, "--quiet"))
     m = clutterseg.evaluate(gt, r.labels, scene.points, gt_convention=convention)
     assert m.scored
-    for key in ("wov", "precision", "recall", "f1", "tp", "fp", "fn"):
+    for key in ("wov", "precision", "recall", "f1", "tp", "fp", "fn", "loss_merged",
+                "loss_split", "loss_boundary", "loss_background"):
         assert getattr(m, key) == pytest.approx(tool[key], rel=1e-9, abs=1e-12), key
     assert m.num_gt_objects == tool["gt_objects"]
     assert m.num_segments == tool["segments"]
