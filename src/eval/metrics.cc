@@ -293,6 +293,13 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
     CLUTTERSEG_DEMAND(it != m.objects.end() && it->gt_id == gt_id);
     return static_cast<uint64_t>(it->size);
   };
+  // A segment's points on the background: its entry (label, 0) comes first in its range.
+  const auto background_points = [this](uint32_t label) -> uint64_t {
+    const uint64_t key = uint64_t{label} << 32;
+    const auto it = std::lower_bound(pairs_by_segment_.begin(), pairs_by_segment_.end(),
+                                     std::make_pair(key, size_t{0}));
+    return it != pairs_by_segment_.end() && it->first == key ? it->second : 0;
+  };
   enum Cause { kMerged, kSplit, kBoundary, kBackground };
   double lost[4] = {0.0, 0.0, 0.0, 0.0};
   size_t counts[4];
@@ -317,7 +324,13 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
         const bool covers_own = covers(count, obj.size);
         const int covered = segment_cover_counts_[FindIndex(segment_cover_counts_, label)].second;
         const bool covers_other = covered - (covers_own ? 1 : 0) >= 1;
-        counts[!covers_other ? kSplit : (covers_own ? kMerged : kBoundary)] += count;
+        if (covers_other) {
+          counts[covers_own ? kMerged : kBoundary] += count;
+        } else {
+          const bool mostly_background = 2 * background_points(label) >
+                                         segment_sizes_[FindIndex(segment_sizes_, label)].second;
+          counts[mostly_background ? kBackground : kSplit] += count;
+        }
       }
       // Points of s_i outside g_i, by the object they belong to.
       if (obj.best_segment != 0) {

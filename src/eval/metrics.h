@@ -91,12 +91,15 @@ struct ObjectScore {
 ///   wov + loss_merged + loss_split + loss_boundary + loss_background = 1:
 ///   * merged: a point of g_i in a segment covering g_i and another object, or a point of
 ///     s_i \ g_i on an object that s_i covers (objects in one segment);
-///   * split: a point of g_i in a segment covering no other object (a piece of g_i alone);
+///   * split: a point of g_i in a segment covering no other object and mostly on objects (a
+///     piece of g_i alone);
 ///   * boundary: a point of g_i in a segment covering another object but not g_i, or a
 ///     point of s_i \ g_i on an object that s_i does not cover (a border between objects
 ///     drawn in the wrong place);
-///   * background: a point of g_i predicted 0, or a point of s_i on the ground truth's
-///     background (a border with the table or the scene).
+///   * background: a point of g_i predicted 0 or in a segment covering no other object and
+///     mostly on the ground truth's background (a method without a background label calls
+///     the table a segment), or a point of s_i on the background (a border with the table or
+///     the scene).
 /// A frame without ground-truth objects has `scored == false` and all ratios 0; it is left
 /// out of the means of Summarize().
 struct FrameMetrics {

@@ -170,6 +170,16 @@ TEST(MetricsTest, TheLostOverlapIsSharedByCause) {
               kTol);
 }
 
+// A method without a background label: the table is segment 9, and 20 points of object 1's
+// bottom are in it. They are lost to the background, not to a piece of the object.
+TEST(MetricsTest, ObjectPointsInASegmentOfTheTableAreLostToTheBackground) {
+  const FrameMetrics m =
+      Score(MakeFrame(Cat({Rep(100, 1), Rep(200, 0)}), Cat({Rep(80, 1), Rep(20, 9), Rep(200, 9)})));
+  EXPECT_NEAR(m.wov, 0.8, kTol);
+  EXPECT_NEAR(m.loss_background, 0.2, kTol);
+  EXPECT_NEAR(m.loss_split, 0.0, kTol);
+}
+
 TEST(MetricsTest, AnObjectNoSegmentTouchesIsLostToTheBackground) {
   const FrameMetrics m =
       Score(MakeFrame(Cat({Rep(30, 1), Rep(10, 2)}), Cat({Rep(30, 0), Rep(10, 5)})));

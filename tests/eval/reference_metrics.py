@@ -25,9 +25,11 @@ Definitions (the same readings as src/eval/metrics.h):
     |g_i| / |g_i | s_i| (all of g_i weighs 1 when no segment touches it) and goes to one
     cause: merged (a point of g_i in a segment covering g_i and another object; a point of
     s_i on an object s_i covers), split (a point of g_i in a segment covering no other
-    object), boundary (a point of g_i in a segment covering another object but not g_i; a
-    point of s_i on an object it does not cover), background (a point of g_i predicted 0; a
-    point of s_i on no object); loss_<cause> is the weights' sum over sum |g_i|;
+    object, most of whose points are on objects), boundary (a point of g_i in a segment
+    covering another object but not g_i; a point of s_i on an object it does not cover),
+    background (a point of g_i predicted 0 or in a segment covering no other object, most of
+    whose points are on no object; a point of s_i on no object); loss_<cause> is the
+    weights' sum over sum |g_i|;
   * several frames: quality figures are means over frames that have ground-truth objects,
     counts are totals.
 """
@@ -202,7 +204,11 @@ def score_frame(xyz_ok, gt_raw, pred, convention, ocid_background, coverage_perc
                 cause = "background"
             else:
                 others = [o for o in objects if o != g and covers(j, o)]
-                cause = "split" if not others else ("merged" if covers(j, g) else "boundary")
+                if others:
+                    cause = "merged" if covers(j, g) else "boundary"
+                else:
+                    on_objects = sum(1 for q in segments[j] if q in gt_of)
+                    cause = "split" if 2 * on_objects >= len(segments[j]) else "background"
             lost[cause] += weight
         for k in s - points_g:
             o = gt_of.get(k, 0)
