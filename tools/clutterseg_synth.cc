@@ -79,6 +79,7 @@ struct Options {
   std::string objects;
   bool png{false};
   bool labels_only{false};
+  bool part_labels{false};
   bool no_noise{false};
   double noise_correlation_px{-1.0};  // < 0: the sensor default
   int width{640};
@@ -147,12 +148,20 @@ void WriteTextFile(const fs::path& path, const std::string& text) {
   if (!f) throw std::runtime_error("failed writing '" + path.string() + "'");
 }
 
+// The label written for pixel i: the object label, or with `parts` mOSD's part label
+// 10 x label + part (part 1: the object's surface seen from inside, a vessel's inside).
+uint32_t OutputLabel(const RenderedFrame& frame, size_t i, bool parts) {
+  const uint32_t label = frame.label.data[i];
+  return parts && label != 0 ? 10 * label + frame.inside.data[i] : label;
+}
+
 // Writes <stem>.pcd and, with PNGs, <stem>_depth.png, <stem>_color.png, <stem>_label.png
-// and intrinsics.json into one directory; with `labels_only` <stem>_label.png alone.
+// and intrinsics.json into one directory; with `labels_only` <stem>_label.png alone. With
+// `part_labels` the PCD and the label PNG carry part labels (OutputLabel).
 class DirectorySink : public FrameSink {
  public:
-  DirectorySink(fs::path dir, bool png, bool labels_only)
-      : dir_(std::move(dir)), png_(png), labels_only_(labels_only) {}
+  DirectorySink(fs::path dir, bool png, bool labels_only, bool part_labels)
+      : dir_(std::move(dir)), png_(png), labels_only_(labels_only), part_labels_(part_labels) {}
 
   void Begin(const core::CameraIntrinsics& k) override {
     if (!png_) return;
@@ -167,6 +176,10 @@ class DirectorySink : public FrameSink {
   void Write(const RenderedFrame& frame, FrameRecord* record) override {
     if (!labels_only_) {
       ToPointCloud(frame, &cloud_);
+      if (part_labels_) {
+        for (size_t i = 0; i < cloud_.label.size(); ++i)
+          cloud_.label[i] = OutputLabel(frame, i, true);
+      }
       const std::string pcd = record->name + ".pcd";
       io::WritePcd((dir_ / pcd).string(), cloud_, io::PcdEncoding::kBinary);
       record->files.emplace_back("pcd", pcd);
@@ -183,7 +196,8 @@ class DirectorySink : public FrameSink {
     const std::string label = record->name + "_label.png";
     label16_.Reset(frame.label.width, frame.label.height);
     for (size_t i = 0; i < frame.label.size(); ++i) {
-      label16_.data[i] = static_cast<uint16_t>(std::min<uint32_t>(frame.label.data[i], 65535));
+      label16_.data[i] =
+          static_cast<uint16_t>(std::min<uint32_t>(OutputLabel(frame, i, part_labels_), 65535));
     }
     io::WriteDepthPng((dir_ / label).string(), label16_);
     record->files.emplace_back("label_png", label);
@@ -195,6 +209,7 @@ class DirectorySink : public FrameSink {
   fs::path dir_;
   bool png_;
   bool labels_only_;
+  bool part_labels_;
   core::PointCloud cloud_;
   core::DepthImage label16_;
 };
@@ -361,6 +376,11 @@ int Run(int argc, char** argv) {
   app.add_flag("--gt-labels-only", opt.labels_only,
                "write each frame's label PNG (16-bit) and no PCD; the manifest's per-object "
                "centroids and point counts are the rest of the ground truth");
+  app.add_flag("--part-labels", opt.part_labels,
+               "label object points as mOSD's parts do: 10 x label + part, part 1 on a surface "
+               "seen from inside (a bowl's inside, a cup's inner wall and bottom), 0 elsewhere; "
+               "score with clutterseg-eval --gt-convention mosd-parts (mosd-objects: whole "
+               "objects). Scenes only (not with --sequence, --scenario or --oni)");
   app.add_flag("--no-noise", opt.no_noise,
                "no random sensor noise or quantisation (shadows and grazing limits stay)");
   app.add_option("--noise-correlation", opt.noise_correlation_px,
@@ -388,6 +408,9 @@ int Run(int argc, char** argv) {
     throw UsageError("one of --out DIR or --oni FILE is required");
   }
   if (opt.labels_only && opt.out_dir.empty()) throw UsageError("--gt-labels-only needs --out DIR");
+  if (opt.part_labels && (opt.sequence || !opt.oni_path.empty())) {
+    throw UsageError("--part-labels: scenes only (not with --sequence, --scenario or --oni)");
+  }
 #ifndef CLUTTERSEG_SYNTH_WITH_ONI
   if (!opt.oni_path.empty()) throw UsageError("--oni: built without the ONI writer");
 #endif
@@ -412,7 +435,7 @@ int Run(int argc, char** argv) {
       throw std::runtime_error("output path '" + dir.string() + "' exists and is not a directory");
     }
     fs::create_directories(dir);
-    sink = std::make_unique<DirectorySink>(dir, opt.png, opt.labels_only);
+    sink = std::make_unique<DirectorySink>(dir, opt.png, opt.labels_only, opt.part_labels);
   }
 #ifdef CLUTTERSEG_SYNTH_WITH_ONI
   if (!opt.oni_path.empty()) sink = std::make_unique<OniSink>(opt.oni_path, std::move(sink));

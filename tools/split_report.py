@@ -15,7 +15,10 @@ against the reference and the mean gains.
 
 Usage:
   tools/split_report.py [--build build/release] [--out out/splits]
-      [--gt-convention mosd-parts] NAME='OPTIONS' [NAME='OPTIONS' ...]
+      [--gt-convention mosd-parts] [--synthetic-parts] NAME='OPTIONS' [NAME='OPTIONS' ...]
+With --synthetic-parts the synthetic sets carry mOSD's part labels (clutterseg-synth
+--part-labels: a bowl's or cup's inside is a part of its own) and are scored with
+--gt-convention like the mOSD categories; without it they have one label per object (plain).
 The first NAME is the reference (usually 'defaults='); OPTIONS are clutterseg-segment options,
 e.g. off= on="--set objects.container_max_axis_offset_rel=0.5". Needs the real sets
 (tools/data_root.sh); synthetic sets are generated into OUT once. Per-frame CSVs stay in OUT.
@@ -43,18 +46,24 @@ def run(cmd):
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
 
 
-def synthetic_sets(build, out):
+def synthetic_sets(build, out, parts):
+    """The synthetic sets, generated into OUT once; with `parts` labelled as mOSD's parts
+    (clutterseg-synth --part-labels: a vessel's inside is a part of its own), in their own
+    directories."""
     synth = os.path.join(build, "tools", "clutterseg-synth")
+    extra = ["--part-labels"] if parts else []
+    suffix = "_parts" if parts else ""
     sets = {}
     for name in TUNING_PILES + HELD_OUT_PILES:
-        d = os.path.join(out, name)
+        d = os.path.join(out, name + suffix)
         if not os.path.isdir(d):
-            run([synth, "--out", d, "--count", "15", "--seed", name[5:], "--objects", "10:20"])
+            run([synth, "--out", d, "--count", "15", "--seed", name[5:], "--objects", "10:20"]
+                + extra)
         sets[name] = d
     for name, count in (("rooms7", "30"), ("rooms101", "20")):
-        d = os.path.join(out, name)
+        d = os.path.join(out, name + suffix)
         if not os.path.isdir(d):
-            run([synth, "--out", d, "--count", count, "--seed", name[5:]])
+            run([synth, "--out", d, "--count", count, "--seed", name[5:]] + extra)
         sets[name] = d
     return sets
 
@@ -63,13 +72,13 @@ def mean(rows, key):
     return sum(float(r[key]) for r in rows) / len(rows)
 
 
-def score(build, out, data, sets, convention, tag, options):
+def score(build, out, data, sets, convention, synthetic_convention, tag, options):
     seg = os.path.join(build, "tools", "clutterseg-segment")
     ev = os.path.join(build, "tools", "clutterseg-eval")
     rows = {}
     inputs = [("learn", os.path.join(data, "mosd-learn"), convention),
               ("clutter", os.path.join(data, "mosd-clutter"), convention)]
-    inputs += [(name, d, "plain") for name, d in sorted(sets.items())]
+    inputs += [(name, d, synthetic_convention) for name, d in sorted(sets.items())]
     for name, src, conv in inputs:
         csv_path = os.path.join(out, "%s.%s.%s.csv" % (tag, conv, name))
         if not os.path.isfile(csv_path):
@@ -98,21 +107,26 @@ def main():
     ap.add_argument("--out", default="out/splits")
     ap.add_argument("--gt-convention", default="mosd-parts",
                     choices=("mosd-parts", "mosd-objects"))
+    ap.add_argument("--synthetic-parts", action="store_true",
+                    help="label the synthetic sets as mOSD's parts (a vessel's inside apart) "
+                         "and score them with --gt-convention, as the mOSD categories")
     ap.add_argument("candidates", nargs="+", help="NAME=OPTIONS; the first is the reference")
     args = ap.parse_args()
     data = subprocess.run([os.path.join(os.path.dirname(os.path.abspath(__file__)),
                                         "data_root.sh")],
                           check=True, capture_output=True, text=True).stdout.strip()
     os.makedirs(args.out, exist_ok=True)
-    sets = synthetic_sets(args.build, args.out)
+    sets = synthetic_sets(args.build, args.out, args.synthetic_parts)
+    synthetic_convention = args.gt_convention if args.synthetic_parts else "plain"
     cands = []
     for c in args.candidates:
         name, _, opts = c.partition("=")
         tag = "".join(ch if ch.isalnum() else "_" for ch in name)
-        cands.append((name, score(args.build, args.out, data, sets, args.gt_convention, tag,
-                                  shlex.split(opts))))
+        cands.append((name, score(args.build, args.out, data, sets, args.gt_convention,
+                                  synthetic_convention, tag, shlex.split(opts))))
     splits = CATEGORIES + TUNING_PILES + HELD_OUT_PILES + ROOMS
-    print("Labels of the mOSD categories: %s\n" % args.gt_convention)
+    print("Labels of the mOSD categories: %s; of the synthetic sets: %s\n"
+          % (args.gt_convention, synthetic_convention))
     print("| configuration | " + " | ".join(splits) + " |")
     print("|---" * (len(splits) + 1) + "|")
     for name, s in cands:

@@ -158,15 +158,18 @@ void RenderGeometryRows(const Context& ctx, int v0, int v1, RenderedFrame* out) 
       if (hit < 0) {
         out->true_depth_m.data[i] = 0.f;
         out->true_label.data[i] = 0;
+        out->true_inside.data[i] = 0;
         out->status.data[i] = static_cast<uint8_t>(DepthStatus::kNoSurface);
       } else {
         const PreparedPrimitive& pp = ctx.prims[static_cast<size_t>(hit)];
         const Primitive& prim = ctx.scene->primitives[pp.index];
-        if (Dot(n, dir) > 0.0) n = -n;  // face the camera (inside of shells)
+        const bool inside = Dot(n, dir) > 0.0;  // the outward normal faces away
+        if (inside) n = -n;                     // face the camera (inside of shells)
         const Vec3 point = ctx.camera.translation + t * dir;
         // dir has unit z in the camera frame, so t is the depth.
         out->true_depth_m.data[i] = static_cast<float>(t);
         out->true_label.data[i] = prim.label;
+        out->true_inside.data[i] = prim.label != 0 && inside ? 1 : 0;
         DepthStatus status = DepthStatus::kValid;
         const double cos_incidence = -Dot(n, dir) / Norm(dir);
         if (t < sp.min_range_m || t > sp.max_range_m) {
@@ -230,6 +233,7 @@ void MeasureRows(const Context& ctx, int v0, int v1, RenderedFrame* out) {
       const size_t i = static_cast<size_t>(v) * ctx.width + u;
       out->depth.data[i] = 0;
       out->label.data[i] = 0;
+      out->inside.data[i] = 0;
       const uint64_t pixel_hash = PixelHash(ctx.seed, i);
       int su = u;
       int sv = v;
@@ -274,6 +278,7 @@ void MeasureRows(const Context& ctx, int v0, int v1, RenderedFrame* out) {
       if (mm <= 0 || mm > 65535) continue;
       out->depth.data[i] = static_cast<uint16_t>(mm);
       out->label.data[i] = out->true_label.data[s];
+      out->inside.data[i] = out->true_inside.data[s];
     }
   }
 }
@@ -328,6 +333,8 @@ void RenderScene(const Scene& scene, const core::CameraIntrinsics& intrinsics,
   out->label.Reset(w, h, 0);
   out->true_depth_m.Reset(w, h, 0.f);
   out->true_label.Reset(w, h, 0);
+  out->true_inside.Reset(w, h, 0);
+  out->inside.Reset(w, h, 0);
   out->status.Reset(w, h, 0);
   if (sensor.axial_noise) {
     internal::CorrelatedGaussianField(ctx.seed, w, h, sensor.axial_noise_correlation_px,

@@ -34,6 +34,12 @@ struct RenderedFrame {
   /// Label of the nearest surface through the pixel centre (0 for background or no surface),
   /// whether or not the sensor measures it.
   core::LabelImage true_label;
+  /// 1 where that surface of an object is seen from inside (its outward normal faces away
+  /// from the camera: the inside of a bowl, a cup's inner wall and bottom), else 0.
+  core::Image<uint8_t> true_inside;
+  /// true_inside where `label` is measured, 0 elsewhere: an object point's part, as mOSD's
+  /// part labels separate a vessel's inside from its outside.
+  core::Image<uint8_t> inside;
   /// Status of each depth pixel (DepthStatus values).
   core::Image<uint8_t> status;
   core::CameraIntrinsics intrinsics;

@@ -118,6 +118,44 @@ TEST(RenderScene, NearObjectOverwritesFarOne) {
   EXPECT_EQ(frame.label.at(static_cast<int>(k.cx - 50), v), 1u);
 }
 
+// A bowl (hemispherical shell) with its opening towards the camera is seen from inside; the
+// same bowl turned away, and a solid box, from outside. The measured `inside` image follows
+// the label image.
+TEST(RenderScene, ASurfaceSeenFromInsideIsMarked) {
+  const core::CameraIntrinsics k = core::DefaultKinectIntrinsics();
+  const auto count = [](const RenderedFrame& f, uint32_t label, int inside) {
+    int n = 0;
+    for (size_t i = 0; i < f.label.data.size(); ++i) {
+      n += f.label.data[i] == label && f.inside.data[i] == inside ? 1 : 0;
+    }
+    return n;
+  };
+  for (const bool open_to_camera : {true, false}) {
+    Scene scene = CameraFrameScene();
+    Primitive bowl =
+        MakePrimitive(PrimitiveKind::kHemisphereShell, {0.1, 0.0, 1.2}, {0.1, 0.1, 0.1}, 1);
+    // The shell is the local z <= 0 half: local z away from the camera opens it to it.
+    if (open_to_camera)
+      bowl.pose = Pose::FromAxes({1, 0, 0}, {0, -1, 0}, {0, 0, -1}, {0.1, 0.0, 1.2});
+    scene.primitives.push_back(bowl);
+    scene.primitives.push_back(
+        MakePrimitive(PrimitiveKind::kBox, {-0.2, 0.0, 1.2}, {0.15, 0.15, 0.15}, 2));
+    RenderedFrame frame;
+    RenderScene(scene, k, IdealSensorParams(), 1, &frame);
+    const int bowl_pixels = count(frame, 1, 0) + count(frame, 1, 1);
+    ASSERT_GT(bowl_pixels, 5000);
+    EXPECT_EQ(count(frame, 1, 1), open_to_camera ? bowl_pixels : 0) << open_to_camera;
+    EXPECT_GT(count(frame, 2, 0), 5000);
+    EXPECT_EQ(count(frame, 2, 1), 0);
+    EXPECT_EQ(count(frame, 0, 1), 0);
+    for (size_t i = 0; i < frame.label.data.size(); ++i) {
+      if (frame.label.data[i] != 0) {
+        ASSERT_EQ(frame.inside.data[i], frame.true_inside.data[i]);
+      }
+    }
+  }
+}
+
 class GeneratedScenes : public ::testing::Test {
  protected:
   static SceneParams Params() {

@@ -151,6 +151,48 @@ TEST(SynthTool, LabelsOnlyGroundTruthOfAPileSequenceIsByteIdenticalForASeed) {
   EXPECT_EQ(RunTool("--oni x.oni --gt-labels-only --scenario piles"), 2);  // needs --out
 }
 
+// --part-labels writes the same scenes with mOSD's part labels: 10 x label + part, part 1 on
+// the vessels' insides (the seed's scenes hold bowls and cups).
+TEST(SynthTool, PartLabelsAreTheObjectLabelsWithTheVesselInsidesApart) {
+  const fs::path plain = testing::ScratchDir("synth_tool_plain");
+  const fs::path parts = testing::ScratchDir("synth_tool_parts");
+  const std::string args = " --count 3 --seed 2101 --objects 10:20 --png";
+  ASSERT_EQ(RunTool("--out " + plain.string() + args), 0);
+  ASSERT_EQ(RunTool("--out " + parts.string() + args + " --part-labels"), 0);
+  int insides = 0;
+  for (const char* stem : {"scene_0000", "scene_0001", "scene_0002"}) {
+    const std::string pcd = std::string(stem) + ".pcd";
+    const core::PointCloud a = io::ReadPcd((plain / pcd).string());
+    const core::PointCloud b = io::ReadPcd((parts / pcd).string());
+    ASSERT_EQ(a.size(), b.size());
+    std::set<uint32_t> vessels;
+    for (size_t i = 0; i < a.size(); ++i) {
+      ASSERT_EQ(core::IsValid(a.xyz[i]), core::IsValid(b.xyz[i]));
+      if (a.label[i] == 0) {
+        ASSERT_EQ(b.label[i], 0u);
+        continue;
+      }
+      ASSERT_EQ(b.label[i] / 10, a.label[i]);
+      ASSERT_LE(b.label[i] % 10, 1u);
+      if (b.label[i] % 10 == 1) {
+        ++insides;
+        vessels.insert(a.label[i]);
+      }
+    }
+    // Colour and depth are the same files; the label PNG carries the part labels too.
+    EXPECT_EQ(ReadAll(plain / (std::string(stem) + "_depth.png")),
+              ReadAll(parts / (std::string(stem) + "_depth.png")));
+    const core::DepthImage png =
+        io::ReadDepthPng((parts / (std::string(stem) + "_label.png")).string());
+    ASSERT_EQ(png.data.size(), b.size());
+    for (size_t i = 0; i < b.size(); ++i) ASSERT_EQ(png.data[i], b.label[i]);
+    EXPECT_FALSE(vessels.empty()) << stem;
+  }
+  EXPECT_GT(insides, 5000);
+  EXPECT_EQ(RunTool("--out " + parts.string() + " --scenario piles --part-labels"), 2);
+  EXPECT_EQ(RunTool("--out " + parts.string() + " --sequence --part-labels"), 2);
+}
+
 TEST(SynthTool, BadArgumentsExitTwoAndIoErrorsExitOne) {
   const fs::path dir = testing::ScratchDir("synth_tool_bad");
   const std::string out = " --out " + dir.string();
