@@ -260,27 +260,9 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
     begin = end;
   }
 
-  // 4. Under-segmentation needs every segment's cover count, so it is a second pass.
-  begin = 0;
-  size_t obj_index = 0;
-  while (begin < pairs_.size()) {
-    const uint32_t gt_id = gt_of(pairs_[begin].first);
-    size_t end = begin;
-    while (end < pairs_.size() && gt_of(pairs_[end].first) == gt_id) ++end;
-    if (gt_id != 0) {
-      ObjectScore& obj = m.objects[obj_index++];
-      for (size_t i = begin; i < end && !obj.under_segmented; ++i) {
-        const uint32_t label = pred_of(pairs_[i].first);
-        if (label == 0 || !covers(pairs_[i].second, obj.size)) continue;
-        obj.under_segmented =
-            segment_cover_counts_[FindIndex(segment_cover_counts_, label)].second >= 2;
-      }
-    }
-    begin = end;
-  }
-
-  // 5. Where the overlap is lost: each object's error points by cause (FrameMetrics). The
-  //    points of its best segment on other objects come from the table sorted by segment.
+  // 4. Under-segmentation and where the overlap is lost (FrameMetrics) need every segment's
+  //    cover count, so they are a second pass. The points of an object's best segment on
+  //    other objects come from the table sorted by segment.
   pairs_by_segment_.clear();
   for (const auto& [key, count] : pairs_) {
     pairs_by_segment_.emplace_back((uint64_t{pred_of(key)} << 32) | gt_of(key), count);
@@ -302,20 +284,18 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
   };
   enum Cause { kMerged, kSplit, kBoundary, kBackground };
   double lost[4] = {0.0, 0.0, 0.0, 0.0};
-  size_t counts[4];
   begin = 0;
-  obj_index = 0;
+  size_t obj_index = 0;
   while (begin < pairs_.size()) {
     const uint32_t gt_id = gt_of(pairs_[begin].first);
     size_t end = begin;
     while (end < pairs_.size() && gt_of(pairs_[end].first) == gt_id) ++end;
     if (gt_id != 0) {
-      const ObjectScore& obj = m.objects[obj_index++];
-      std::fill(counts, counts + 4, size_t{0});
+      ObjectScore& obj = m.objects[obj_index++];
+      size_t counts[4] = {0, 0, 0, 0};
       // Points of g_i outside s_i, by the segment holding them.
       for (size_t i = begin; i < end; ++i) {
         const uint32_t label = pred_of(pairs_[i].first);
-        if (label != 0 && label == obj.best_segment) continue;
         const size_t count = pairs_[i].second;
         if (label == 0) {
           counts[kBackground] += count;
@@ -323,8 +303,9 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
         }
         const bool covers_own = covers(count, obj.size);
         const int covered = segment_cover_counts_[FindIndex(segment_cover_counts_, label)].second;
-        const bool covers_other = covered - (covers_own ? 1 : 0) >= 1;
-        if (covers_other) {
+        if (covers_own && covered >= 2) obj.under_segmented = true;
+        if (label == obj.best_segment) continue;
+        if (covered - (covers_own ? 1 : 0) >= 1) {  // covers another object
           counts[covers_own ? kMerged : kBoundary] += count;
         } else {
           const bool mostly_background = 2 * background_points(label) >
@@ -356,7 +337,7 @@ void FrameEvaluator::Evaluate(std::span<const core::Vec3f> xyz, std::span<const 
     begin = end;
   }
 
-  // 6. Frame figures.
+  // 5. Frame figures.
   m.num_gt_objects = static_cast<int>(m.objects.size());
   if (m.objects.empty()) return;
   m.scored = true;

@@ -198,18 +198,20 @@ def score_frame(xyz_ok, gt_raw, pred, convention, ocid_background, coverage_perc
             fns.append(len(points_g - tp_set) / len(points_g))
         s = segments[best] if best is not None else set()
         weight = len(points_g) / len(points_g | s)
-        for k in points_g - s:
-            j = pred[k]
+
+        def fn_cause(j):  # the cause of a point of g outside s, predicted j
             if j == 0:
-                cause = "background"
-            else:
-                others = [o for o in objects if o != g and covers(j, o)]
-                if others:
-                    cause = "merged" if covers(j, g) else "boundary"
-                else:
-                    on_objects = sum(1 for q in segments[j] if q in gt_of)
-                    cause = "split" if 2 * on_objects >= len(segments[j]) else "background"
-            lost[cause] += weight
+                return "background"
+            if any(o != g and covers(j, o) for o in objects):
+                return "merged" if covers(j, g) else "boundary"
+            on_objects = sum(1 for q in segments[j] if q in gt_of)
+            return "split" if 2 * on_objects >= len(segments[j]) else "background"
+
+        causes = {}
+        for k in points_g - s:
+            if pred[k] not in causes:
+                causes[pred[k]] = fn_cause(pred[k])
+            lost[causes[pred[k]]] += weight
         for k in s - points_g:
             o = gt_of.get(k, 0)
             cause = "background" if o == 0 else ("merged" if covers(best, o) else "boundary")
