@@ -123,6 +123,13 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, container_max_radius_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, container_max_radius_diff_rel),
       CLUTTERSEG_SEGMENTER_KEY(objects, container_max_fit_rms_rel),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_min_step_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_max_step_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_min_significance),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_face_angle_deg),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_min_face_width_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_max_face_noise_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_max_face_sag_m),
   };
   return kKeys;
 }

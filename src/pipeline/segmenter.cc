@@ -10,6 +10,7 @@
 #include "clutterseg/optimize/planes.h"
 #include "clutterseg/pipeline/objects.h"
 #include "clutterseg/pipeline/refine.h"
+#include "clutterseg/pipeline/stack_cut.h"
 #include "clutterseg/pipeline/working_cloud.h"
 #include "clutterseg/supervoxel/supervoxelizer.h"
 
@@ -36,6 +37,7 @@ struct Segmenter::Impl {
         linkage(p.linkage, thread_pool),
         plane_labeler(p.planes),
         refiner(p.objects, thread_pool),
+        stack_cut(p.objects, thread_pool),
         objects(thread_pool) {}
 
   const SegmenterParams params;
@@ -47,6 +49,7 @@ struct Segmenter::Impl {
   graph::Linkage linkage;
   optimize::PlaneLabeler plane_labeler;
   Refiner refiner;
+  StackCutter stack_cut;
   ObjectExtractor objects;
 
   WorkingCloud work;
@@ -177,6 +180,7 @@ void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraInt
   times[Stage::kExpansion] = m.planes.expansion_ms;
 
   m.refiner.Compute(intrinsics, work, m.sv, m.patch, m.link, m.planes, result, &m.regions);
+  m.stack_cut.Compute(cloud, m.sv, result);
   m.objects.Compute(cloud, result);
 }
 

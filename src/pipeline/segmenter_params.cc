@@ -29,6 +29,13 @@ void ObjectParams::ValidateOrThrow() const {
                 "m");
   check.InRange("container_max_radius_diff_rel", container_max_radius_diff_rel, 0.f, 10.f);
   check.InRange("container_max_fit_rms_rel", container_max_fit_rms_rel, 0.f, 100.f);
+  check.InRange("stack_cut_min_step_m", stack_cut_min_step_m, 0.f, 1.f, "m");
+  check.InRange("stack_cut_max_step_m", stack_cut_max_step_m, stack_cut_min_step_m, 1.f, "m");
+  check.InRange("stack_cut_min_significance", stack_cut_min_significance, 0.f, 1e6f);
+  check.InRange("stack_cut_face_angle_deg", stack_cut_face_angle_deg, 1.f, 45.f, "deg");
+  check.InRange("stack_cut_min_face_width_m", stack_cut_min_face_width_m, 0.f, 10.f, "m");
+  check.InRange("stack_cut_max_face_noise_m", stack_cut_max_face_noise_m, 1e-5f, 1.f, "m");
+  check.InRange("stack_cut_max_face_sag_m", stack_cut_max_face_sag_m, 0.f, 1.f, "m");
 }
 
 void SegmenterParams::ValidateOrThrow() const {

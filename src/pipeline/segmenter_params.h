@@ -115,6 +115,30 @@ struct ObjectParams {
   /// its radius (a body of revolution about a vertical axis); see
   /// container_max_axis_offset_rel.
   float container_max_fit_rms_rel{1.0f};
+  /// Flush stacks are cut (0 = off): an object whose upright face steps, along its height, by
+  /// at least this much between two planar parts (the front of a box stacked on another,
+  /// standing a few millimetres in front of or behind the lower front) is split there, its
+  /// part above the step an object of its own, metres (StackCutter, docs/method.md section 7).
+  float stack_cut_min_step_m{0.004f};
+  /// Larger steps are not a flush stack (the two parts meet at a crease the linkage cuts, or
+  /// the surface is curved), metres; see stack_cut_min_step_m.
+  float stack_cut_max_step_m{0.010f};
+  /// The step must be at least this many standard errors of the difference of the two parts'
+  /// offsets (robust noise of the points, their counts); see stack_cut_min_step_m.
+  float stack_cut_min_significance{20.0f};
+  /// A face is the upright points whose normals lie within this angle of its direction
+  /// across the support's normal, degrees; see stack_cut_min_step_m.
+  float stack_cut_face_angle_deg{8.0f};
+  /// Each part of the face spans at least this width across it (5..95 % of its points),
+  /// metres; see stack_cut_min_step_m.
+  float stack_cut_min_face_width_m{0.04f};
+  /// Each part's robust noise (1.4826 MAD of its offsets) is at most this, metres; see
+  /// stack_cut_min_step_m.
+  float stack_cut_max_face_noise_m{0.003f};
+  /// The face bends across its width by at most this (the sagitta of a parabola through its
+  /// offsets over its 5..95 % width: a cylinder's side is not a face), metres; see
+  /// stack_cut_min_step_m.
+  float stack_cut_max_face_sag_m{0.002f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.objects.<field>`) and value.
   void ValidateOrThrow() const;

@@ -291,14 +291,16 @@ TEST_F(DaemonFrame, ABadExtrinsicsFileExitsTwoNamingTheFileAndField) {
 // camera.decimation = 2 on the real OniFile replay: everything is published at 320x240 with the
 // intrinsics of that image, and the same objects come out where they were at full resolution,
 // each with about a quarter of its points (a few small pieces more); a bad factor exits 2
-// naming the key. The bridge cut (segmenter.linkage.bridge_max_edges) is off in both runs: it
-// decides on the supervoxel graph, whose patches hold a quarter of the points at half
-// resolution, and one of these tabletops has a bridge it cuts at one resolution only (its
-// effect on decimated streams is measured in docs/results.md, "Bridge cut").
+// naming the key. The bridge cut (segmenter.linkage.bridge_max_edges) and the flush-stack cut
+// (segmenter.objects.stack_cut_min_step_m) are off in both runs: they decide on the supervoxel
+// graph and on counts of points, a quarter of them at half resolution, and one of these
+// tabletops has a bridge and a stack they cut at one resolution only (the bridge cut's effect
+// on decimated streams is measured in docs/results.md, "Bridge cut").
 TEST_F(DaemonFrame, DecimationPublishesTheSameObjectsAtAQuarterOfThePixels) {
   const std::string full_log = (dir_ / "full.lcmlog").string();
   const std::string half_log = (dir_ / "half.lcmlog").string();
-  const std::vector<std::string> no_bridge = {"--set", "segmenter.linkage.bridge_max_edges=0"};
+  const std::vector<std::string> no_bridge = {"--set", "segmenter.linkage.bridge_max_edges=0",
+                                              "--set", "segmenter.objects.stack_cut_min_step_m=0"};
   std::vector<std::string> half_args = no_bridge;
   half_args.insert(half_args.end(), {"--set", "camera.decimation=2"});
   std::string err;
