@@ -25,7 +25,7 @@ constexpr float kBandM = 0.008f;        // the bands beside the split that must 
 constexpr size_t kMinBandPoints = 30;   // points in each band
 constexpr float kMinBandShare = 0.7f;   // the bands step by this share of the step
 constexpr float kCutMarginM = 0.003f;   // the upper part starts this far above the split
-constexpr float kCoarseShare = 0.5f;    // the bins\' first look asks this share of the step
+constexpr float kCoarseShare = 0.5f;    // the bins' first look asks this share of the step
 constexpr float kMadToSigma = 1.4826f;  // robust standard deviation from the MAD
 constexpr int kAzimuthBins = 360;
 constexpr int32_t kNotUpright = -2;  // Work::sv_entry of a supervoxel that is not upright
@@ -355,9 +355,13 @@ uint32_t StackCutter::Compute(const core::PointCloudView& cloud, const supervoxe
                               SegmentationResult* result) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto num_objects = static_cast<uint32_t>(result->objects.size());
-  if (params_.stack_cut_min_step_m <= 0.f || num_objects == 0) return 0;
   std::vector<uint32_t>& labels = result->labels.data;
   const size_t size = labels.size();
+  // The supervoxels label the same points (the working cloud's layout is the input's).
+  if (params_.stack_cut_min_step_m <= 0.f || num_objects == 0 || sv.pixel_label.size() != size ||
+      cloud.xyz.size() != size) {
+    return 0;
+  }
 
   // Each object's pixels, in pixel order (a counting sort on the labels).
   offsets_.assign(num_objects + 2, 0u);
