@@ -28,6 +28,7 @@ constexpr float kCutMarginM = 0.003f;   // the upper part starts this far above 
 constexpr float kCoarseShare = 0.5f;    // the bins' first look asks this share of the step
 constexpr float kMadToSigma = 1.4826f;  // robust standard deviation from the MAD
 constexpr int kAzimuthBins = 360;
+constexpr size_t kMaxChunks = 16;    // chunks of objects searched on the pool
 constexpr int32_t kNotUpright = -2;  // Work::sv_entry of a supervoxel that is not upright
 
 // Median of v (reordered), the mean of the two middle values for an even count.
@@ -378,11 +379,15 @@ uint32_t StackCutter::Compute(const core::PointCloudView& cloud, const supervoxe
   // offsets_[k] .. offsets_[k + 1] are now label k + 1's pixels: shift to index by object.
   offsets_.erase(offsets_.begin());
 
-  if (work_.size() < num_objects) work_.resize(num_objects);
+  // At most kMaxChunks chunks of objects, each with its own work buffers (a Search leaves
+  // them ready for the next object), so their memory does not grow with the object count.
+  const size_t grain = (num_objects + kMaxChunks - 1) / kMaxChunks;
+  if (work_.size() < kMaxChunks) work_.resize(kMaxChunks);
   cuts_.resize(num_objects);
-  core::ForChunks(pool_, num_objects, 1, [&](size_t begin, size_t end) {
+  core::ForChunks(pool_, num_objects, grain, [&](size_t begin, size_t end) {
+    Work* work = &work_[begin / grain];
     for (size_t k = begin; k < end; ++k) {
-      cuts_[k] = Search(cloud, sv, result->planes, static_cast<uint32_t>(k), &work_[k]);
+      cuts_[k] = Search(cloud, sv, result->planes, static_cast<uint32_t>(k), work);
     }
   });
 

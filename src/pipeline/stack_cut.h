@@ -33,8 +33,8 @@ namespace clutterseg::pipeline {
 /// in the order of their first point.
 ///
 /// Thread-safety: Compute is not reentrant (reuses work buffers); distinct instances are
-/// independent. The objects are searched in parallel on the pool, each with its own buffers;
-/// the result does not depend on it.
+/// independent. The objects are searched in parallel on the pool, in at most 16 chunks with
+/// buffers of their own; the result does not depend on it.
 class StackCutter {
  public:
   /// `pool` may be null (single-threaded) and must outlive the cutter.
@@ -58,7 +58,8 @@ class StackCutter {
     uint32_t points;
     uint8_t face;
   };
-  // One object's search (distinct objects use distinct instances).
+  // The buffers of one object's search; a chunk of objects searched one after the other
+  // shares one.
   struct Work {
     std::vector<int32_t> sv_entry;  // per supervoxel: its entry, -1 unseen, -2 not upright
     std::vector<Entry> entries;
