@@ -130,6 +130,9 @@ const std::vector<Key<pipeline::SegmenterParams>>& SegmenterKeys() {
       CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_min_face_width_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_max_face_noise_m),
       CLUTTERSEG_SEGMENTER_KEY(objects, stack_cut_max_face_sag_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, neck_cut_max_width_m),
+      CLUTTERSEG_SEGMENTER_KEY(objects, neck_cut_min_share),
+      CLUTTERSEG_SEGMENTER_KEY(objects, neck_cut_max_occluded_share),
   };
   return kKeys;
 }

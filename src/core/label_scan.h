@@ -3,6 +3,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
+#include <vector>
 
 namespace clutterseg::core {
 
@@ -27,6 +28,22 @@ void ForEachLabelled(const uint32_t* a, const uint32_t* b, size_t num, Visit&& v
     for (size_t j = i; j < i + 8; ++j) visit(j);
   }
   for (; i < num; ++i) visit(i);
+}
+
+/// Renumbers the labels 1..`max_label` of `labels` in the order of their first pixel (0 stays
+/// 0), using `scratch`; returns the number of labels present. Labels above `max_label` must not
+/// occur.
+inline uint32_t RenumberInFirstPixelOrder(std::vector<uint32_t>* labels, uint32_t max_label,
+                                          std::vector<uint32_t>* scratch) {
+  scratch->assign(size_t{max_label} + 1, 0u);
+  uint32_t id = 0;
+  for (uint32_t& l : *labels) {
+    if (l == 0) continue;
+    uint32_t& to = (*scratch)[l];
+    if (to == 0) to = ++id;
+    l = to;
+  }
+  return id;
 }
 
 }  // namespace clutterseg::core

@@ -5,13 +5,23 @@
 
 namespace clutterseg::core {
 
-std::string FormatParamValue(double value) {
+namespace {
+
+// The shortest text that reads back to `value` as its own type.
+template <typename T>
+std::string ShortestText(T value) {
   if (std::isnan(value)) return "nan";
   if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
   char buf[64];
   const auto [ptr, ec] = std::to_chars(buf, buf + sizeof(buf), value);
   return std::string(buf, ec == std::errc() ? ptr : buf);
 }
+
+}  // namespace
+
+std::string FormatParamValue(double value) { return ShortestText(value); }
+
+std::string FormatParamValue(float value) { return ShortestText(value); }
 
 std::string FormatParamValue(int64_t value) { return std::to_string(value); }
 

@@ -9,8 +9,10 @@
 namespace clutterseg::core {
 
 /// Formats a parameter value for messages: integers as integers, floating-point values in
-/// the shortest form that reads back to the same value.
+/// the shortest form that reads back to the same value of their own type (a float 0.004 as
+/// "0.004", not as the double it widens to).
 std::string FormatParamValue(double value);
+std::string FormatParamValue(float value);
 std::string FormatParamValue(int64_t value);
 
 /// The one validation helper of every parameter struct (`ValidateOrThrow()`): each check
@@ -74,6 +76,8 @@ class ParamCheck {
   static std::string Format(T value) {
     if constexpr (std::is_same_v<T, bool>) {
       return value ? "true" : "false";
+    } else if constexpr (std::is_same_v<T, float>) {
+      return FormatParamValue(value);
     } else if constexpr (std::is_floating_point_v<T>) {
       return FormatParamValue(static_cast<double>(value));
     } else if constexpr (std::is_integral_v<T>) {

@@ -8,6 +8,7 @@
 #include "clutterseg/graph/linkage.h"
 #include "clutterseg/graph/patch_features.h"
 #include "clutterseg/optimize/planes.h"
+#include "clutterseg/pipeline/neck_cut.h"
 #include "clutterseg/pipeline/objects.h"
 #include "clutterseg/pipeline/refine.h"
 #include "clutterseg/pipeline/stack_cut.h"
@@ -38,6 +39,7 @@ struct Segmenter::Impl {
         plane_labeler(p.planes),
         refiner(p.objects, thread_pool),
         stack_cut(p.objects, thread_pool),
+        neck_cut(p.objects, thread_pool),
         objects(thread_pool) {}
 
   const SegmenterParams params;
@@ -50,6 +52,7 @@ struct Segmenter::Impl {
   optimize::PlaneLabeler plane_labeler;
   Refiner refiner;
   StackCutter stack_cut;
+  NeckCutter neck_cut;
   ObjectExtractor objects;
 
   WorkingCloud work;
@@ -181,6 +184,7 @@ void Segmenter::Segment(const core::PointCloudView& cloud, const core::CameraInt
 
   m.refiner.Compute(intrinsics, work, m.sv, m.patch, m.link, m.planes, result, &m.regions);
   m.stack_cut.Compute(cloud, m.sv, result);
+  m.neck_cut.Compute(cloud, intrinsics, result);
   m.objects.Compute(cloud, result);
 }
 

@@ -36,6 +36,9 @@ void ObjectParams::ValidateOrThrow() const {
   check.InRange("stack_cut_min_face_width_m", stack_cut_min_face_width_m, 0.f, 10.f, "m");
   check.InRange("stack_cut_max_face_noise_m", stack_cut_max_face_noise_m, 1e-5f, 1.f, "m");
   check.InRange("stack_cut_max_face_sag_m", stack_cut_max_face_sag_m, 0.f, 1.f, "m");
+  check.InRange("neck_cut_max_width_m", neck_cut_max_width_m, 0.f, 1.f, "m");
+  check.InRange("neck_cut_min_share", neck_cut_min_share, 0.01f, 0.5f);
+  check.InRange("neck_cut_max_occluded_share", neck_cut_max_occluded_share, 0.f, 1.f);
 }
 
 void SegmenterParams::ValidateOrThrow() const {

@@ -139,6 +139,18 @@ struct ObjectParams {
   /// offsets over its 5..95 % width: a cylinder's side is not a face), metres; see
   /// stack_cut_min_step_m.
   float stack_cut_max_face_sag_m{0.002f};
+  /// Objects are cut at necks of their outline in the image narrower than this (0 = off): two
+  /// objects joined only where they touch at a point or along a short contact (cans side by
+  /// side whose tops meet), metres at the object's mean depth (NeckCutter, docs/method.md
+  /// section 7). Organized clouds only.
+  float neck_cut_max_width_m{0.016f};
+  /// Each side of a neck holds at least this share of the object's pixels (past the neck, and
+  /// min_object_points once cut); see neck_cut_max_width_m.
+  float neck_cut_min_share{0.2f};
+  /// A neck is left when more than this share of the valid pixels beside its cut line (within a
+  /// neck width, outside the object) lie 1 cm or more in front of it: an occluder narrows what
+  /// it hides; see neck_cut_max_width_m.
+  float neck_cut_max_occluded_share{0.3f};
 
   /// @throws std::invalid_argument naming the key (`segmenter.objects.<field>`) and value.
   void ValidateOrThrow() const;

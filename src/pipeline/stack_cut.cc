@@ -406,14 +406,7 @@ uint32_t StackCutter::Compute(const core::PointCloudView& cloud, const supervoxe
   }
   if (num_cuts > 0) {
     // Ids in the order of each object's first pixel.
-    relabel_.assign(next + 1, 0u);
-    uint32_t id = 0;
-    for (uint32_t& l : labels) {
-      if (l == 0) continue;
-      if (relabel_[l] == 0) relabel_[l] = ++id;
-      l = relabel_[l];
-    }
-    result->objects.assign(id, Object{});
+    result->objects.assign(core::RenumberInFirstPixelOrder(&labels, next, &relabel_), Object{});
   }
   result->times[Stage::kRefine] +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

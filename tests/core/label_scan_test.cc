@@ -58,5 +58,18 @@ TEST(CountInChunks, AddsUpToTheSerialCountWhateverThePool) {
   }
 }
 
+TEST(RenumberInFirstPixelOrder, NumbersLabelsByTheirFirstPixelAndKeepsBackground) {
+  // Labels 5, 2 and 7 first seen in that order; 3 is unused; 0 stays 0.
+  std::vector<uint32_t> labels = {0, 5, 5, 2, 0, 7, 2, 5, 0};
+  std::vector<uint32_t> scratch;
+  EXPECT_EQ(RenumberInFirstPixelOrder(&labels, 7, &scratch), 3u);
+  EXPECT_EQ(labels, (std::vector<uint32_t>{0, 1, 1, 2, 0, 3, 2, 1, 0}));
+  // Already in order: unchanged; the scratch is reused.
+  EXPECT_EQ(RenumberInFirstPixelOrder(&labels, 3, &scratch), 3u);
+  EXPECT_EQ(labels, (std::vector<uint32_t>{0, 1, 1, 2, 0, 3, 2, 1, 0}));
+  std::vector<uint32_t> empty(4, 0u);
+  EXPECT_EQ(RenumberInFirstPixelOrder(&empty, 0, &scratch), 0u);
+}
+
 }  // namespace
 }  // namespace clutterseg::core
