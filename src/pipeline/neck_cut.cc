@@ -51,8 +51,10 @@ void Chamfer(int w, int h, std::vector<uint16_t>* dist) {
   }
 }
 
-// RMS distance (metres) of the points whose moments are `m` to their plane.
+// RMS distance (metres) of the points whose moments are `m` to their plane; infinite for
+// fewer than three points.
 double PlaneRms(const double* m) {
+  if (m[0] < 3.0) return std::numeric_limits<double>::infinity();
   double mean[3], cov[6], vec[3], eigenvalues[3];
   geometry::MomentsCovariance(m, mean, cov);
   geometry::SmallestEigenvector(cov, vec, eigenvalues);
@@ -199,7 +201,7 @@ bool NeckCutter::Search(const core::PointCloudView& cloud, float fx, uint32_t k,
       if ((l >= 0 && l != c) || (r >= 0 && r != c) || (u >= 0 && u != c) || (d >= 0 && d != c)) {
         const size_t p = image_index(x, y);
         work->line.push_back(static_cast<uint32_t>(p));
-        work->depths.push_back(cloud.xyz[p].z);
+        if (std::isfinite(cloud.xyz[p].z)) work->depths.push_back(cloud.xyz[p].z);
         lx0 = std::min(lx0, x);
         ly0 = std::min(ly0, y);
         lx1 = std::max(lx1, x);
@@ -207,7 +209,7 @@ bool NeckCutter::Search(const core::PointCloudView& cloud, float fx, uint32_t k,
       }
     }
   }
-  if (work->line.empty()) return false;
+  if (work->depths.empty()) return false;
   const auto mid = work->depths.begin() + static_cast<std::ptrdiff_t>(work->depths.size() / 2);
   std::nth_element(work->depths.begin(), mid, work->depths.end());
   const float line_z = *mid;
@@ -253,8 +255,10 @@ bool NeckCutter::Search(const core::PointCloudView& cloud, float fx, uint32_t k,
     double m[geometry::kNumMoments] = {};
     for (int y = 1; y + 1 < h; ++y) {
       for (int x = 1; x + 1 < w; ++x) {
-        if (work->owner[static_cast<size_t>(y) * w + x] == static_cast<int32_t>(c)) {
-          geometry::AddToMoments(cloud.xyz[image_index(x, y)], m);
+        const core::Vec3f& p = cloud.xyz[image_index(x, y)];
+        if (work->owner[static_cast<size_t>(y) * w + x] == static_cast<int32_t>(c) &&
+            core::IsValid(p)) {
+          geometry::AddToMoments(p, m);
         }
       }
     }
@@ -293,8 +297,9 @@ uint32_t NeckCutter::Compute(const core::PointCloudView& cloud,
       b.y0 = std::min(b.y0, y);
       b.y1 = y;
       ++b.count;
-      if (sample_z) {
-        b.z_sum += cloud.xyz[static_cast<size_t>(y) * width + x].z;
+      const float z = sample_z ? cloud.xyz[static_cast<size_t>(y) * width + x].z : 0.f;
+      if (sample_z && std::isfinite(z)) {
+        b.z_sum += z;
         ++b.z_count;
       }
     });
