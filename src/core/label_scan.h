@@ -11,6 +11,13 @@ namespace clutterseg::core {
 /// of a 640 x 480 frame, so that two threads share a frame's pass evenly.
 inline constexpr size_t kPixelGrain = size_t{1} << 15;
 
+/// Whether the eight labels at `a` are all 0 (one load of 32 bytes, any alignment).
+inline bool AllZero8(const uint32_t* a) {
+  uint64_t x[4];
+  std::memcpy(x, a, sizeof(x));
+  return ((x[0] | x[1]) | (x[2] | x[3])) == 0;
+}
+
 /// Calls `visit(i)` for every pixel index i < `num` at which label image `a` or `b` is not 0,
 /// and possibly at others: the images are read in blocks of eight pixels, and a block that is
 /// 0 in both (most of a frame is background in both) is skipped without a call. `visit` must

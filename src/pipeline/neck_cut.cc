@@ -282,27 +282,38 @@ uint32_t NeckCutter::Compute(const core::PointCloudView& cloud,
   labels_ = labels.data();
   const auto fx = static_cast<float>(intrinsics.fx);
 
-  // Each object's box, pixel count and mean depth (of every fourth row), row by row.
+  // Each object's box, pixel count and mean depth (of every fourth row), by runs of one label
+  // along each row (blocks of eight background pixels skipped).
   boxes_.assign(num_objects, Box{cloud.width, cloud.height, -1, -1, 0u, 0u, 0.0});
   const auto width = static_cast<size_t>(cloud.width);
   for (int y = 0; y < cloud.height; ++y) {
     const uint32_t* row = labels_ + static_cast<size_t>(y) * width;
+    const core::Vec3f* row_xyz = cloud.xyz.data() + static_cast<size_t>(y) * width;
     const bool sample_z = y % kDepthRowStep == 0;
-    core::ForEachLabelled(row, row, width, [&](size_t x) {
-      const uint32_t l = row[x];
-      if (l - 1 >= num_objects) return;
-      Box& b = boxes_[l - 1];
-      b.x0 = std::min(b.x0, static_cast<int>(x));
-      b.x1 = std::max(b.x1, static_cast<int>(x));
-      b.y0 = std::min(b.y0, y);
-      b.y1 = y;
-      ++b.count;
-      const float z = sample_z ? cloud.xyz[static_cast<size_t>(y) * width + x].z : 0.f;
-      if (sample_z && std::isfinite(z)) {
-        b.z_sum += z;
-        ++b.z_count;
+    size_t x = 0;
+    while (x < width) {
+      if (x + 8 <= width && core::AllZero8(row + x)) {
+        x += 8;
+        continue;
       }
-    });
+      const uint32_t l = row[x];
+      size_t end = x + 1;
+      while (end < width && row[end] == l) ++end;
+      if (l - 1 < num_objects) {
+        Box& b = boxes_[l - 1];
+        b.x0 = std::min(b.x0, static_cast<int>(x));
+        b.x1 = std::max(b.x1, static_cast<int>(end - 1));
+        b.y0 = std::min(b.y0, y);
+        b.y1 = y;
+        b.count += static_cast<uint32_t>(end - x);
+        for (size_t i = x; sample_z && i < end; ++i) {
+          if (!std::isfinite(row_xyz[i].z)) continue;
+          b.z_sum += row_xyz[i].z;
+          ++b.z_count;
+        }
+      }
+      x = end;
+    }
   }
 
   const size_t grain = (num_objects + kMaxChunks - 1) / kMaxChunks;

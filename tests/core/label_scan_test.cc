@@ -58,6 +58,18 @@ TEST(CountInChunks, AddsUpToTheSerialCountWhateverThePool) {
   }
 }
 
+TEST(AllZero8, IsTrueOnlyWhenAllEightLabelsAreZero) {
+  // At every offset of a longer array (any alignment), and with each of the eight set.
+  std::vector<uint32_t> a(24, 0u);
+  for (size_t o = 0; o + 8 <= a.size(); ++o) EXPECT_TRUE(AllZero8(a.data() + o)) << o;
+  for (size_t j = 0; j < 8; ++j) {
+    a[3 + j] = 1u << (5 * j);
+    EXPECT_FALSE(AllZero8(a.data() + 3)) << j;
+    EXPECT_TRUE(AllZero8(a.data() + 4 + j)) << j;  // the set label just before the block
+    a[3 + j] = 0;
+  }
+}
+
 TEST(RenumberInFirstPixelOrder, NumbersLabelsByTheirFirstPixelAndKeepsBackground) {
   // Labels 5, 2 and 7 first seen in that order; 3 is unused; 0 stays 0.
   std::vector<uint32_t> labels = {0, 5, 5, 2, 0, 7, 2, 5, 0};
