@@ -63,7 +63,7 @@ TEST(AllZero8, IsTrueOnlyWhenAllEightLabelsAreZero) {
   std::vector<uint32_t> a(24, 0u);
   for (size_t o = 0; o + 8 <= a.size(); ++o) EXPECT_TRUE(AllZero8(a.data() + o)) << o;
   for (size_t j = 0; j < 8; ++j) {
-    a[3 + j] = 1u << (5 * j);
+    a[3 + j] = 1u << (4 * j);
     EXPECT_FALSE(AllZero8(a.data() + 3)) << j;
     EXPECT_TRUE(AllZero8(a.data() + 4 + j)) << j;  // the set label just before the block
     a[3 + j] = 0;
