@@ -327,7 +327,9 @@ uint32_t NeckCutter::Compute(const core::PointCloudView& cloud,
   });
 
   // The parts other than the largest become objects of their own, in object order, within
-  // max_objects.
+  // max_objects. The search keeps no partition per object (its chunks share buffers), so the
+  // few objects cut are partitioned again here; labels of other objects do not change what
+  // Partition reads.
   uint32_t next = num_objects;
   uint32_t num_cut = 0;
   Work* work = &work_[0];
